@@ -1,0 +1,68 @@
+# Helpers that give every project target the same warnings, sanitizers and install rules.
+
+set(HYQ_WARNINGS
+  -Wall -Wextra -Wpedantic -Wshadow -Wnon-virtual-dtor -Wold-style-cast -Wcast-align
+  -Woverloaded-virtual -Wnull-dereference -Wdouble-promotion -Wformat=2 -Wimplicit-fallthrough
+  -Wmissing-declarations)
+
+# Apply warnings, sanitizers and project-wide definitions to TARGET.
+function(hyq_target_defaults target)
+  target_compile_options(${target} PRIVATE ${HYQ_WARNINGS})
+  target_compile_features(${target} PUBLIC cxx_std_20)
+  if(HYQ_NAN_INIT)
+    target_compile_definitions(${target} PUBLIC HYQ_NAN_INIT=1 EIGEN_INITIALIZE_MATRICES_BY_NAN)
+  endif()
+  if(HYQ_EIGEN_NO_MALLOC)
+    target_compile_definitions(${target} PUBLIC EIGEN_RUNTIME_NO_MALLOC=1)
+  endif()
+  if(HYQ_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=${HYQ_SANITIZE} -fno-omit-frame-pointer
+                                             -fno-sanitize-recover=all)
+    target_link_options(${target} PUBLIC -fsanitize=${HYQ_SANITIZE})
+    target_compile_definitions(${target} PUBLIC HYQ_SANITIZED=1)
+  endif()
+endfunction()
+
+# hyq_add_library(NAME SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
+# Creates hyq_NAME with alias hyq::NAME. Headers are included as "NAME/header.h" from the source
+# root when building and from include/hyq when installed.
+function(hyq_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  add_library(hyq_${name} ${ARG_SOURCES})
+  add_library(hyq::${name} ALIAS hyq_${name})
+  set_target_properties(hyq_${name} PROPERTIES EXPORT_NAME ${name} OUTPUT_NAME hyq_${name})
+  target_include_directories(hyq_${name} PUBLIC
+    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
+    $<BUILD_INTERFACE:${PROJECT_BINARY_DIR}/generated>
+    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/hyq>)
+  target_link_libraries(hyq_${name} PUBLIC ${ARG_PUBLIC_DEPS} PRIVATE ${ARG_PRIVATE_DEPS})
+  hyq_target_defaults(hyq_${name})
+  install(TARGETS hyq_${name} EXPORT hyqTargets
+    ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
+    LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
+  file(GLOB headers ${CMAKE_CURRENT_SOURCE_DIR}/*.h)
+  install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/hyq/${name})
+endfunction()
+
+# hyq_add_executable(NAME SOURCES ... [DEPS ...]) for tools/: installed to bin/.
+function(hyq_add_executable name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS})
+  hyq_target_defaults(${name})
+  install(TARGETS ${name} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+endfunction()
+
+# Exported CMake package (find_package(hyq) gives hyq::dynamics, ...) and a pkg-config file.
+function(hyq_install_package)
+  include(CMakePackageConfigHelpers)
+  install(EXPORT hyqTargets NAMESPACE hyq:: DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/hyq)
+  configure_package_config_file(${PROJECT_SOURCE_DIR}/cmake/hyqConfig.cmake.in
+    ${PROJECT_BINARY_DIR}/hyqConfig.cmake INSTALL_DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/hyq)
+  write_basic_package_version_file(${PROJECT_BINARY_DIR}/hyqConfigVersion.cmake
+    COMPATIBILITY SameMinorVersion)
+  install(FILES ${PROJECT_BINARY_DIR}/hyqConfig.cmake ${PROJECT_BINARY_DIR}/hyqConfigVersion.cmake
+    DESTINATION ${CMAKE_INSTALL_LIBDIR}/cmake/hyq)
+  configure_file(${PROJECT_SOURCE_DIR}/cmake/hyq.pc.in ${PROJECT_BINARY_DIR}/hyq.pc @ONLY)
+  install(FILES ${PROJECT_BINARY_DIR}/hyq.pc DESTINATION ${CMAKE_INSTALL_LIBDIR}/pkgconfig)
+endfunction()

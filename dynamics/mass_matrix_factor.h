@@ -1,0 +1,58 @@
+// Factorisation of the floating-base mass matrix and the blocks of its inverse that the
+// contact-aware inverse dynamics needs (Zapolsky et al., eqs 13–16):
+//
+//   M = [A B; Bᵀ C]  (A: 6 × 6 base, C: 12 × 12 joints)          M⁻¹ = [D E; Eᵀ F]      (13, 14)
+//
+// C is block diagonal (the legs do not couple through the joints), so the joints are eliminated
+// first, leg by leg, with no fill-in (the LTDL idea of Featherstone 2005):
+//   Y = B C⁻¹,   Ā = A − Y Bᵀ = D⁻¹ (the articulated-body inertia of the base),
+//   D = Ā⁻¹,   E = −D Y,   F = C⁻¹ + Yᵀ D Y,
+// and the Schur complement of A gives the inverse of F without inverting F:
+//   F⁻¹ = C − Bᵀ A⁻¹ B,   E F⁻¹ = −A⁻¹ B.
+// Nothing forms a general 18 × 18 inverse (tests compare every block with one).
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include <Eigen/Cholesky>
+
+#include "dynamics/model.h"
+
+namespace hyq::dynamics {
+
+using BaseJointMatrix = Eigen::Matrix<double, kNumBaseDofs, kNumJoints>;
+using JointMatrix = Eigen::Matrix<double, kNumJoints, kNumJoints>;
+
+enum class [[nodiscard]] FactorStatus : std::uint8_t { kOk, kNotPositiveDefinite };
+
+/// The factorisation: Cholesky of each leg's 3 × 3 block of C, Y = B C⁻¹, Cholesky of
+/// Ā = A − Y Bᵀ, and Cholesky of A.
+struct MassMatrixFactor {
+  std::array<Eigen::LLT<Eigen::Matrix3d>, kNumLegs> llt_C;
+  BaseJointMatrix Y;
+  Eigen::LLT<Matrix6d> llt_Abar;
+  Eigen::LLT<Matrix6d> llt_A;
+};
+
+/// The inverse blocks of eq 14, plus A⁻¹, A⁻¹B and F⁻¹.
+struct InverseBlocks {
+  Matrix6d D;
+  BaseJointMatrix E;
+  JointMatrix F;
+  Matrix6d A_inv;
+  BaseJointMatrix A_inv_B;
+  JointMatrix F_inv;
+};
+
+/// Factors M. Returns kNotPositiveDefinite (and leaves `out` unusable) when a pivot fails.
+/// Allocates nothing.
+FactorStatus FactorMassMatrix(const MatrixV& M, MassMatrixFactor* out);
+
+/// Solves M x = b in place (b ← M⁻¹ b) with a completed factorisation. Allocates nothing.
+void SolveInPlace(const MassMatrixFactor& factor, VectorV* b);
+
+/// D, E, F, A⁻¹, A⁻¹B and F⁻¹ from M and its factorisation. Allocates nothing.
+void ComputeInverseBlocks(const MatrixV& M, const MassMatrixFactor& factor, InverseBlocks* out);
+
+}  // namespace hyq::dynamics

@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Installs what is missing, builds the CI preset and runs the whole test suite.
+#   scripts/test.sh [ctest arguments...]     e.g. scripts/test.sh -L dynamics
+set -euo pipefail
+cd "$(dirname "$0")/.."
+scripts/bootstrap.sh
+cmake --preset ci
+cmake --build --preset ci
+ctest --preset ci --parallel "$(nproc)" "$@"
