@@ -17,6 +17,10 @@ readonly PACKAGES=(
   # CAN and test references
   can-utils iproute2 python3 python3-can python3-cvxopt python3-numpy python3-matplotlib
   rt-tests xvfb x11-apps imagemagick util-linux
+  # run-in-vcan-vm (../shared/tools): a stock Debian kernel with vcan under QEMU
+  qemu-system-x86 busybox-static kmod
+  # msgpack for python-can's udp_multicast interface, libFuzzer via clang
+  python3-msgpack
 )
 
 check_only=0
