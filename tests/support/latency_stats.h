@@ -1,0 +1,45 @@
+// Per-call latency percentiles for Google Benchmark loops: time each call with the steady clock,
+// then publish p50 / p99 / p99.9 / max (ns) as counters, so benchmarks report tails, not only
+// the mean per batch.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cstddef>
+#include <vector>
+
+#include <benchmark/benchmark.h>
+
+namespace hyq::testing {
+
+class LatencyRecorder {
+ public:
+  explicit LatencyRecorder(std::size_t capacity) { samples_.reserve(capacity); }
+
+  template <class F>
+  void Time(F&& f) {
+    const auto t0 = std::chrono::steady_clock::now();
+    f();
+    const auto t1 = std::chrono::steady_clock::now();
+    if (samples_.size() < samples_.capacity())
+      samples_.push_back(std::chrono::duration<double, std::nano>(t1 - t0).count());
+  }
+
+  void Publish(benchmark::State* state) {
+    if (samples_.empty()) return;
+    std::sort(samples_.begin(), samples_.end());
+    auto pct = [&](double p) {
+      return samples_[std::min(samples_.size() - 1,
+                               static_cast<std::size_t>(p * static_cast<double>(samples_.size())))];
+    };
+    state->counters["p50_ns"] = pct(0.50);
+    state->counters["p99_ns"] = pct(0.99);
+    state->counters["p999_ns"] = pct(0.999);
+    state->counters["max_ns"] = samples_.back();
+  }
+
+ private:
+  std::vector<double> samples_;
+};
+
+}  // namespace hyq::testing
