@@ -70,17 +70,33 @@ void ComputeFootKinematics(const Model& model, const Kinematics& kin, FootKinema
     feet->v_WF_W[f] = v_WF;
     feet->Jdot_v_W[f] = kin.A_vp_WB[b].tail<3>() + kin.A_vp_WB[b].head<3>().cross(p_WF) +
                         w.cross(v_WF);
+    feet->Jwdot_v_W[f] = kin.A_vp_WB[b].head<3>();
 
     // J(:, d) = S_lin(d) + S_ang(d) × p for the ancestors of the foot's body
+    // Jw(:, d) = S_ang(d) for the same dofs
     FootJacobian& J = feet->J_WF[f];
+    FootJacobian& Jw = feet->Jw_WF[f];
     J.setZero();
-    for (int d = 0; d < kNumBaseDofs; ++d)
+    Jw.setZero();
+    for (int d = 0; d < kNumBaseDofs; ++d) {
       J.col(d) = kin.S_W.col(d).tail<3>() + kin.S_W.col(d).head<3>().cross(p_WF);
+      Jw.col(d) = kin.S_W.col(d).head<3>();
+    }
     for (int k = b; k != kTrunk; k = model.bodies[k].parent) {
       const int d = VIndexOfJoint(k - 1);
       J.col(d) = kin.S_W.col(d).tail<3>() + kin.S_W.col(d).head<3>().cross(p_WF);
+      Jw.col(d) = kin.S_W.col(d).head<3>();
     }
   }
+}
+
+void ContactPointJacobian(const Model& model, const FootKinematics& feet, int f,
+                          const Eigen::Vector3d& n_W, FootJacobian* J_c,
+                          Eigen::Vector3d* Jdot_c_v) {
+  const double r = model.feet[f].radius_m;
+  // v_c = v_F + w × (−r n) = v_F + r n × w
+  J_c->noalias() = feet.J_WF[f] + r * Skew(n_W) * feet.Jw_WF[f];
+  *Jdot_c_v = feet.Jdot_v_W[f] + r * n_W.cross(feet.Jwdot_v_W[f]);
 }
 
 }  // namespace hyq::dynamics

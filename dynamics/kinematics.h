@@ -33,7 +33,17 @@ struct FootKinematics {
   std::array<Eigen::Vector3d, kNumFeet> v_WF_W;     // velocity,  = J v
   std::array<Eigen::Vector3d, kNumFeet> Jdot_v_W;   // J̇ v: foot acceleration when v̇ = 0
   std::array<FootJacobian, kNumFeet> J_WF;          // 3 × 18, world-aligned: v_WF_W = J v
+  std::array<FootJacobian, kNumFeet> Jw_WF;         // angular: w_WF_W = Jw v (the lower leg's)
+  std::array<Eigen::Vector3d, kNumFeet> Jwdot_v_W;  // J̇w v: angular acceleration when v̇ = 0
 };
+
+/// The Jacobian and J̇v of the contact point of foot f's sphere on a surface with unit normal n
+/// (world): c = p_WF − r n and w × (−r n) = r n × w, so J_c = J + r [n]× Jw and
+/// J̇_c v = J̇v + r n × J̇w v (n fixed in the world). Rolling moves
+/// the contact point relative to the sphere's centre; this is the velocity that slips.
+void ContactPointJacobian(const Model& model, const FootKinematics& feet, int f,
+                          const Eigen::Vector3d& n_W, FootJacobian* J_c,
+                          Eigen::Vector3d* Jdot_c_v);
 
 /// Foot positions, velocities, world-aligned 3 × 18 Jacobians and J̇v from a completed
 /// ForwardKinematics. Column d of J is S_lin(d) + S_ang(d) × p_WF for the foot's ancestor dofs

@@ -123,6 +123,42 @@ TEST_F(Dynamics, JdotVMatchesFiniteDifferences) {
   }
 }
 
+TEST_F(Dynamics, ContactPointJacobianMatchesFiniteDifferences) {
+  // the material point of the sphere that touches a surface of normal n: c = p − r n
+  constexpr double eps = 1e-6;
+  const Eigen::Vector3d n = Eigen::Vector3d(0.2, -0.1, 1.0).normalized();
+  for (int s = 0; s < 20; ++s) {
+    const auto st = testing::MakeRandomState(HyqModel(), &rng_);
+    const auto d = Compute(st.q, st.v);
+    for (int f = 0; f < kNumFeet; ++f) {
+      FootJacobian Jc;
+      Eigen::Vector3d Jcdot_v;
+      ContactPointJacobian(HyqModel(), d->feet, f, n, &Jc, &Jcdot_v);
+      const int b = HyqModel().feet[f].body;
+      // the body-fixed point that coincides with c now, followed along the motion
+      const Eigen::Vector3d c = d->feet.p_WF_W[f] - HyqModel().feet[f].radius_m * n;
+      const Eigen::Vector3d c_B = d->kin.R_WB[b].transpose() * (c - d->kin.p_WB_W[b]);
+      auto point = [&](const CycleDynamics& x) {
+        return Eigen::Vector3d(x.kin.p_WB_W[b] + x.kin.R_WB[b] * c_B);
+      };
+      for (int i = 0; i < kNv; ++i) {
+        const auto plus = Compute(Integrate(st.q, VectorV::Unit(i), eps), st.v);
+        const auto minus = Compute(Integrate(st.q, VectorV::Unit(i), -eps), st.v);
+        EXPECT_TRUE(NearRel(Eigen::Vector3d(Jc.col(i)),
+                            Eigen::Vector3d((point(*plus) - point(*minus)) / (2 * eps)), 1e-8));
+      }
+      const auto plus = Compute(Integrate(st.q, st.v, eps), st.v);
+      const auto minus = Compute(Integrate(st.q, st.v, -eps), st.v);
+      FootJacobian Jp, Jm;
+      Eigen::Vector3d unused;
+      ContactPointJacobian(HyqModel(), plus->feet, f, n, &Jp, &unused);
+      ContactPointJacobian(HyqModel(), minus->feet, f, n, &Jm, &unused);
+      // J̇_c v for the contact point of the rolling sphere (n fixed): d/dt (J_c(q(t)) v)
+      EXPECT_TRUE(NearRel(Jcdot_v, Eigen::Vector3d((Jp - Jm) * st.v / (2 * eps)), 1e-6));
+    }
+  }
+}
+
 TEST_F(Dynamics, KineticEnergyEqualsSumOverBodies) {
   // ½ vᵀ M v against Σ ½ m |ċ|² + ½ ωᵀ I_c ω with ċ and ω from finite-differenced poses
   constexpr double eps = 1e-6;

@@ -125,7 +125,7 @@ TEST_F(MujocoReference, ThousandRandomStates) {
   std::mt19937_64 rng(20261123);
   auto ours = std::make_unique<CycleDynamics>();
   Eigen::Matrix<double, kNv, kNv, Eigen::RowMajor> M_mj;
-  Eigen::Matrix<double, 3, kNv, Eigen::RowMajor> J_mj;
+  Eigen::Matrix<double, 3, kNv, Eigen::RowMajor> J_mj, Jw_mj;
   double worst_M = 0, worst_h = 0, worst_J = 0, worst_p = 0;
   for (int s = 0; s < kStates; ++s) {
     const auto state = testing::MakeRandomState(HyqModel(), &rng);
@@ -144,7 +144,8 @@ TEST_F(MujocoReference, ThousandRandomStates) {
     worst_h = std::max(worst_h, (ours->bias - h_mj).cwiseAbs().maxCoeff());
     for (int f = 0; f < kNumFeet; ++f) {
       const Eigen::Map<const Eigen::Vector3d> p_mj(d_->xpos + 3 * foot_body_[f]);
-      mj_jacBody(m_.get(), d_.get(), J_mj.data(), nullptr, foot_body_[f]);
+      mj_jacBody(m_.get(), d_.get(), J_mj.data(), Jw_mj.data(), foot_body_[f]);
+      ASSERT_TRUE(NearRel(ours->feet.Jw_WF[f], Jw_mj, kTol)) << "Jw foot " << f;
       ASSERT_TRUE(NearRel(ours->feet.p_WF_W[f], p_mj, kTol)) << "foot " << f << ", state " << s;
       ASSERT_TRUE(NearRel(ours->feet.J_WF[f], J_mj, kTol)) << "J foot " << f << ", state " << s;
       const Eigen::Vector3d v_mj = J_mj * state.v;
