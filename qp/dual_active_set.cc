@@ -1,0 +1,461 @@
+#include "qp/dual_active_set.h"
+
+#include <cmath>
+#include <limits>
+#ifdef QP_TRACE
+#include <cstdio>
+#endif
+
+namespace hyq::qp::internal {
+namespace {
+
+// How often one row may enter dependent on W (and swap with a blocking row) per subproblem.
+constexpr int kMaxDependentEntries = 2;
+
+double Dot(const double* a, const double* b, int n) {
+  double s = 0.0;
+  for (int i = 0; i < n; ++i) s += a[i] * b[i];
+  return s;
+}
+
+// z = L⁻¹ z in place, z zero above `first`
+void ForwardChol(const Workspace& ws, double* z, int first) {
+  for (int i = first; i < ws.n; ++i) {
+    const double* Li = &ws.chol[i * kN];
+    double s = z[i];
+    for (int k = first; k < i; ++k) s -= Li[k] * z[k];
+    z[i] = s / Li[i];
+  }
+}
+
+// z = L⁻ᵀ z in place (column-oriented so that L is read by rows)
+void BackwardChol(const Workspace& ws, double* z) {
+  for (int i = ws.n - 1; i >= 0; --i) {
+    const double* Li = &ws.chol[i * kN];
+    z[i] /= Li[i];
+    const double zi = z[i];
+    for (int k = 0; k < i; ++k) z[k] -= Li[k] * zi;
+  }
+}
+
+// m = L⁻¹ C_rowᵀ: a bound row is e_i, so m is zero above i
+void RowVector(const Workspace& ws, int row, double* m) {
+  const int n = ws.n;
+  if (row < n) {
+    for (int j = 0; j < n; ++j) m[j] = 0.0;
+    m[row] = 1.0;
+    ForwardChol(ws, m, row);
+  } else {
+    const Problem& p = *ws.problem;
+    for (int j = 0; j < n; ++j) m[j] = p.A(row - n, j);
+    ForwardChol(ws, m, 0);
+  }
+}
+
+double SideBound(const Workspace& ws, int row, int sign) {
+  return sign > 0 ? ws.hi[row] : ws.lo[row];
+}
+
+// signed right-hand side of (2): d = s (b_s − C_row x_k + m_rowᵀ v)
+double RightHandSide(const Workspace& ws, int row, int sign, const double* m) {
+  return sign * (SideBound(ws, row, sign) - ws.cx[row] + Dot(m, ws.v.data(), ws.n));
+}
+
+// Lw Dw Lwᵀ without position j: the rows below j get the rank-one term Dw_j l lᵀ back, l being
+// column j of Lw below the diagonal [Gill et al. 1974, C1]; then every array closes the gap.
+void Remove(Workspace* ws, int j) {
+  const int nw = ws->nw;
+  const int removed = ws->w_row[j];
+  double* lw = ws->lw.data();
+  double* z = ws->tmp.data();
+  for (int r = j + 1; r < nw; ++r) z[r] = lw[r * kN + j];
+  double a = ws->dw[j];
+  for (int c = j + 1; c < nw && a != 0.0; ++c) {
+    const double pz = z[c];
+    const double dn = ws->dw[c] + a * pz * pz;
+    const double beta = pz * a / dn;
+    a = ws->dw[c] * a / dn;
+    ws->dw[c] = dn;
+    for (int r = c + 1; r < nw; ++r) {
+      z[r] -= pz * lw[r * kN + c];
+      lw[r * kN + c] += beta * z[r];
+    }
+  }
+  // close the gap: row r moves to r − 1 and loses its column j
+  for (int r = j + 1; r < nw; ++r) {
+    double* dst = &lw[(r - 1) * kN];
+    const double* src = &lw[r * kN];
+    for (int c = 0; c < j; ++c) dst[c] = src[c];
+    for (int c = j + 1; c < r; ++c) dst[c - 1] = src[c];
+    dst[r - 1] = 1.0;
+    ws->dw[r - 1] = ws->dw[r];
+    ws->w_row[r - 1] = ws->w_row[r];
+    ws->w_sign[r - 1] = ws->w_sign[r];
+    ws->lambda[r - 1] = ws->lambda[r];
+    ws->d[r - 1] = ws->d[r];
+    const double* msrc = &ws->mw[r * kN];
+    double* mdst = &ws->mw[(r - 1) * kN];
+    for (int k = 0; k < ws->n; ++k) mdst[k] = msrc[k];
+  }
+  ws->pos_of[removed] = -1;
+  ws->nw = nw - 1;
+  for (int p = j; p < ws->nw; ++p) ws->pos_of[ws->w_row[p]] = p;
+}
+
+// Tries to put (row, sign) into W. Forward solve for the new row of Lw:
+//   Lw r = k, k_p = s_p s m_pᵀ m,  l = Dw⁻¹ r,  pivot = mᵀm − rᵀ l                     (4)
+// A pivot at or below tol·mᵀm means s m = Σ c_p s_p m_p with c = Lw⁻ᵀ l: returns false and
+// leaves c in ws->tmp2 (W unchanged).
+bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
+  const int n = ws->n, nw = ws->nw;
+  const double* m = ws->mnew.data();
+  double* r = ws->tmp.data();
+  double* l = ws->tmp2.data();
+  const double mm = Dot(m, m, n);
+  for (int p = 0; p < nw; ++p) r[p] = ws->w_sign[p] * sign * Dot(&ws->mw[p * kN], m, n);
+  double pivot = mm;
+  for (int p = 0; p < nw; ++p) {
+    const double* Lp = &ws->lw[p * kN];
+    double s = r[p];
+    for (int q = 0; q < p; ++q) s -= Lp[q] * r[q];
+    r[p] = s;
+    l[p] = s / ws->dw[p];
+    pivot -= s * l[p];
+  }
+  if (nw < n && pivot > tol * mm && mm > 0.0) {
+    double* Lrow = &ws->lw[nw * kN];
+    for (int q = 0; q < nw; ++q) Lrow[q] = l[q];
+    Lrow[nw] = 1.0;
+    ws->dw[nw] = pivot;
+    for (int k = 0; k < n; ++k) ws->mw[nw * kN + k] = m[k];
+    ws->w_row[nw] = row;
+    ws->w_sign[nw] = static_cast<std::int8_t>(sign);
+    ws->lambda[nw] = lambda;
+    ws->d[nw] = RightHandSide(*ws, row, sign, m);
+    ws->pos_of[row] = nw;
+    ws->nw = nw + 1;
+    return true;
+  }
+  // c = Lw⁻ᵀ l, column-oriented
+  for (int p = nw - 1; p >= 0; --p) {
+    const double cp = l[p];
+    const double* Lp = &ws->lw[p * kN];
+    for (int q = 0; q < p; ++q) l[q] -= Lp[q] * cp;
+  }
+  return false;
+}
+
+// The certificate from (4) satisfies Cᵀw = 0 only to the accuracy of the LDP transform; one step
+// of refinement in the original data: r = Cᵀ w, then the W part of w moves by the least-squares
+// correction  Kw Δy = −M_W L⁻¹ r  (the entering row's weight stays fixed).
+void RefineCertificate(Workspace* ws) {
+  const Problem& p = *ws->problem;
+  const int n = ws->n, m = ws->m, nw = ws->nw;
+  double* r = ws->u.data();
+  for (int i = 0; i < n; ++i) r[i] = ws->cert[i];
+  for (int k = 0; k < m; ++k) {
+    const double w = ws->cert[n + k];
+    if (w == 0.0) continue;
+    for (int j = 0; j < n; ++j) r[j] += p.A(k, j) * w;
+  }
+  ForwardChol(*ws, r, 0);
+  double* y = ws->kvec.data();
+  for (int q = 0; q < nw; ++q) {
+    const double* Lq = &ws->lw[q * kN];
+    double s = -ws->w_sign[q] * Dot(&ws->mw[q * kN], r, n);
+    for (int k = 0; k < q; ++k) s -= Lq[k] * y[k];
+    y[q] = s;
+  }
+  for (int q = 0; q < nw; ++q) y[q] /= ws->dw[q];
+  for (int q = nw - 1; q >= 0; --q) {
+    const double* Lq = &ws->lw[q * kN];
+    for (int k = 0; k < q; ++k) y[k] -= Lq[k] * y[q];
+  }
+  for (int q = 0; q < nw; ++q) {
+    const int row = ws->w_row[q];
+    ws->cert[row] += ws->w_sign[q] * y[q];
+    // an inequality's weight keeps its side's sign (rounding-size entries of the other sign go)
+    if (!ws->is_eq[row] && ws->w_sign[q] * ws->cert[row] < 0.0) ws->cert[row] = 0.0;
+  }
+}
+
+bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status) {
+  if (iterations >= limits.max_iterations) {
+    *status = InnerStatus::kIterationLimit;
+    return true;
+  }
+  if (limits.has_deadline && std::chrono::steady_clock::now() >= limits.deadline) {
+    *status = InnerStatus::kDeadline;
+    return true;
+  }
+  return false;
+}
+
+// Row (row, sign) is violated at the current u: add it, first stepping λ along the dependence
+// direction (−c, +1) and dropping the blocking rows while it is dependent on W.
+enum class EnterResult { kEntered, kSkipped, kStop };
+
+EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, int* iterations,
+                  InnerStatus* status) {
+  RowVector(*ws, row, ws->mnew.data());
+  double lambda_new = 0.0;
+  for (;;) {
+    if (TryAppend(ws, row, sign, lambda_new, limits.dependence_tolerance))
+      return EnterResult::kEntered;
+    // a row that keeps entering dependent on W at a degenerate vertex swaps with another forever
+    // when its violation is rounding (cond(H + εI) large): skip it for this subproblem; the
+    // refinement on W afterwards makes it exact (qp/solver.cc checks every row again)
+    if (lambda_new == 0.0 && ++ws->dependent_entries[row] > kMaxDependentEntries) {
+      ws->skipped[row] = 1;
+      return EnterResult::kSkipped;
+    }
+    const double* c = ws->tmp2.data();
+    double cmax = 0.0;
+    for (int p = 0; p < ws->nw; ++p) cmax = std::fmax(cmax, std::fabs(c[p]));
+    int j = -1;
+    double alpha = std::numeric_limits<double>::infinity();
+    for (int p = 0; p < ws->nw; ++p) {
+      if (ws->is_eq[ws->w_row[p]] || !(c[p] > 1e-13 * cmax)) continue;
+      const double t = ws->lambda[p] / c[p];
+      if (t < alpha) alpha = t, j = p;
+    }
+    if (j < 0) {
+      // Farkas: w = signed multipliers with Cᵀ w = 0 and Σ w_i b_i < 0
+      for (int i = 0; i < ws->rows; ++i) ws->cert[i] = 0.0;
+      for (int p = 0; p < ws->nw; ++p) ws->cert[ws->w_row[p]] = -ws->w_sign[p] * c[p];
+      ws->cert[row] = sign;
+      for (int p = 0; p < ws->nw; ++p) {
+        const int r = ws->w_row[p];
+        if (!ws->is_eq[r] && ws->w_sign[p] * ws->cert[r] < 0.0) ws->cert[r] = 0.0;
+      }
+      RefineCertificate(ws);
+      RefineCertificate(ws);
+      *status = InnerStatus::kInfeasible;
+      return EnterResult::kStop;
+    }
+#ifdef QP_TRACE
+    fprintf(stderr, "dependent: remove row %d alpha %.3e\n", ws->w_row[j], alpha);
+#endif
+    for (int p = 0; p < ws->nw; ++p) ws->lambda[p] -= alpha * c[p];
+    ws->lambda[j] = 0.0;
+    lambda_new += alpha;
+    Remove(ws, j);
+    ++*iterations;
+    if (OutOfBudget(limits, *iterations, status)) return EnterResult::kStop;
+  }
+}
+
+}  // namespace
+
+bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
+  const Problem& p = *ws->problem;
+  const int n = ws->n;
+  for (int i = 0; i < n; ++i) {
+    double* Li = &ws->chol[i * kN];
+    for (int j = 0; j <= i; ++j) {
+      const double* Lj = &ws->chol[j * kN];
+      double s = p.H(i, j);
+      for (int k = 0; k < j; ++k) s -= Li[k] * Lj[k];
+      if (i == j) {
+        s += eps;
+        if (!(s > relative_floor * (p.H(i, i) + eps)) || !(s > 0.0)) return false;
+        Li[i] = std::sqrt(s);
+      } else {
+        Li[j] = s / Lj[j];
+      }
+    }
+  }
+  return true;
+}
+
+void RefreshRightHandSides(Workspace* ws) noexcept {
+  for (int p = 0; p < ws->nw; ++p)
+    ws->d[p] = RightHandSide(*ws, ws->w_row[p], ws->w_sign[p], &ws->mw[p * kN]);
+}
+
+bool AppendIfIndependent(Workspace* ws, int row, int sign, double lambda,
+                         double dependence_tolerance) noexcept {
+  if (ws->pos_of[row] >= 0) return false;
+  RowVector(*ws, row, ws->mnew.data());
+  return TryAppend(ws, row, sign, lambda, dependence_tolerance);
+}
+
+void RebuildWorkingSet(Workspace* ws, double dependence_tolerance) noexcept {
+  const int nw = ws->nw;
+  std::array<int, kN> rows = ws->w_row;
+  std::array<std::int8_t, kN> signs = ws->w_sign;
+  std::array<double, kN> lambdas = ws->lambda;
+  for (int p = 0; p < nw; ++p) ws->pos_of[rows[p]] = -1;
+  ws->nw = 0;
+  for (int p = 0; p < nw; ++p)
+    AppendIfIndependent(ws, rows[p], signs[p], lambdas[p], dependence_tolerance);
+}
+
+void ComputeStep(Workspace* ws) noexcept {
+  const int n = ws->n;
+  double* u = ws->u.data();
+  for (int k = 0; k < n; ++k) u[k] = 0.0;
+  // u = −M_Wᵀ λ   (3)
+  for (int p = 0; p < ws->nw; ++p) {
+    const double a = -ws->w_sign[p] * ws->lambda[p];
+    if (a == 0.0) continue;
+    const double* mp = &ws->mw[p * kN];
+    for (int k = 0; k < n; ++k) u[k] += a * mp[k];
+  }
+  // δ = L⁻ᵀ (u − v)
+  double* delta = ws->delta.data();
+  for (int k = 0; k < n; ++k) delta[k] = u[k] - ws->v[k];
+  BackwardChol(*ws, delta);
+  // C δ = [δ; A δ]
+  double* cd = ws->cdelta.data();
+  for (int k = 0; k < n; ++k) cd[k] = delta[k];
+  const int m = ws->m;
+  double* ad = cd + n;
+  for (int i = 0; i < m; ++i) ad[i] = 0.0;
+  if (m > 0) {
+    const double* a = ws->problem->A.data();
+    for (int j = 0; j < n; ++j) {
+      const double dj = delta[j];
+      const double* col = a + j * m;
+      for (int i = 0; i < m; ++i) ad[i] += col[i] * dj;
+    }
+  }
+}
+
+double RefineOnWorkingSet(Workspace* ws) noexcept {
+  const Problem& p = *ws->problem;
+  const int n = ws->n, nw = ws->nw;
+  double* rx = ws->tmp.data();
+  double* x = ws->tmp2.data();
+  for (int i = 0; i < n; ++i) x[i] = ws->xk[i] + ws->delta[i];
+  // r_x = H x + g + ε δ + Σ s_p λ_p C_pᵀ
+  for (int i = 0; i < n; ++i) rx[i] = p.g(i) + ws->eps * ws->delta[i];
+  for (int j = 0; j < n; ++j) {
+    const double xj = x[j];
+    for (int i = 0; i < n; ++i) rx[i] += p.H(i, j) * xj;
+  }
+  for (int q = 0; q < nw; ++q) {
+    const int row = ws->w_row[q];
+    const double y = ws->w_sign[q] * ws->lambda[q];
+    if (row < n) {
+      rx[row] += y;
+    } else {
+      for (int j = 0; j < n; ++j) rx[j] += p.A(row - n, j) * y;
+    }
+  }
+  // v' = L⁻¹ r_x; d'_p = s_p (−r_c,p + m_pᵀ v')
+  ForwardChol(*ws, rx, 0);
+  double* dd = ws->kvec.data();
+  for (int q = 0; q < nw; ++q) {
+    const int row = ws->w_row[q];
+    double cxq;
+    if (row < n) {
+      cxq = x[row];
+    } else {
+      cxq = 0.0;
+      for (int j = 0; j < n; ++j) cxq += p.A(row - n, j) * x[j];
+    }
+    const double rc = cxq - SideBound(*ws, row, ws->w_sign[q]);
+    dd[q] = ws->w_sign[q] * (-rc + Dot(&ws->mw[q * kN], rx, n));
+  }
+  // Δλ = −Kw⁻¹ d'
+  double* dl = ws->mnew.data();
+  for (int q = 0; q < nw; ++q) {
+    const double* Lq = &ws->lw[q * kN];
+    double s = -dd[q];
+    for (int k = 0; k < q; ++k) s -= Lq[k] * dl[k];
+    dl[q] = s;
+  }
+  for (int q = 0; q < nw; ++q) dl[q] /= ws->dw[q];
+  for (int q = nw - 1; q >= 0; --q) {
+    const double* Lq = &ws->lw[q * kN];
+    for (int k = 0; k < q; ++k) dl[k] -= Lq[k] * dl[q];
+  }
+  // Δδ = L⁻ᵀ (−M_Wᵀ Δλ − v')
+  double* dx = ws->u.data();
+  for (int i = 0; i < n; ++i) dx[i] = -rx[i];
+  for (int q = 0; q < nw; ++q) {
+    const double a = -ws->w_sign[q] * dl[q];
+    const double* mq = &ws->mw[q * kN];
+    for (int i = 0; i < n; ++i) dx[i] += a * mq[i];
+  }
+  BackwardChol(*ws, dx);
+  double step = 0.0;
+  for (int i = 0; i < n; ++i) {
+    ws->delta[i] += dx[i];
+    step = std::fmax(step, std::fabs(dx[i]));
+  }
+  for (int q = 0; q < nw; ++q) {
+    ws->lambda[q] += dl[q];
+    if (!ws->is_eq[ws->w_row[q]] && ws->lambda[q] < 0.0) ws->lambda[q] = 0.0;
+  }
+  return step;
+}
+
+InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations) noexcept {
+  InnerStatus status = InnerStatus::kOptimal;
+  for (int i = 0; i < ws->rows; ++i) ws->skipped[i] = ws->dependent_entries[i] = 0;
+  for (;;) {
+    const int nw = ws->nw;
+    // λ* = −Kw⁻¹ d   (3), Kw = Lw Dw Lwᵀ
+    double* ls = ws->lambda_star.data();
+    for (int p = 0; p < nw; ++p) {
+      const double* Lp = &ws->lw[p * kN];
+      double s = -ws->d[p];
+      for (int q = 0; q < p; ++q) s -= Lp[q] * ls[q];
+      ls[p] = s;
+    }
+    for (int p = 0; p < nw; ++p) ls[p] /= ws->dw[p];
+    for (int p = nw - 1; p >= 0; --p) {
+      const double* Lp = &ws->lw[p * kN];
+      const double lp = ls[p];
+      for (int q = 0; q < p; ++q) ls[q] -= Lp[q] * lp;
+    }
+    // dual step: λ ← λ + α (λ* − λ) up to the first inequality multiplier that reaches 0
+    int j = -1;
+    double alpha = 1.0;
+    for (int p = 0; p < nw; ++p) {
+      if (ws->is_eq[ws->w_row[p]] || !(ls[p] < 0.0)) continue;
+      const double t = ws->lambda[p] / (ws->lambda[p] - ls[p]);
+      if (j < 0 || t < alpha) alpha = t, j = p;
+    }
+    if (j >= 0) {
+#ifdef QP_TRACE
+      fprintf(stderr, "remove row %d alpha %.3e lstar %.3e\n", ws->w_row[j], alpha, ls[j]);
+#endif
+      for (int p = 0; p < nw; ++p) ws->lambda[p] += alpha * (ls[p] - ws->lambda[p]);
+      ws->lambda[j] = 0.0;
+      Remove(ws, j);
+      ++*iterations;
+      if (OutOfBudget(limits, *iterations, &status)) return status;
+      continue;
+    }
+    for (int p = 0; p < nw; ++p) ws->lambda[p] = ls[p];
+    ComputeStep(ws);
+    // primal step: the most violated row (relative to its bound) enters
+    int enter = -1, enter_sign = 0;
+    double worst = limits.primal_tolerance;
+    for (int i = 0; i < ws->rows; ++i) {
+      if (ws->pos_of[i] >= 0 || ws->skipped[i]) continue;
+      const double value = ws->cx[i] + ws->cdelta[i];
+      if (value > ws->hi[i]) {
+        const double up = (value - ws->hi[i]) / (1.0 + std::fabs(ws->hi[i]));
+        if (up > worst) worst = up, enter = i, enter_sign = 1;
+      } else if (value < ws->lo[i]) {
+        const double down = (ws->lo[i] - value) / (1.0 + std::fabs(ws->lo[i]));
+        if (down > worst) worst = down, enter = i, enter_sign = -1;
+      }
+    }
+    if (enter < 0) return InnerStatus::kOptimal;
+#ifdef QP_TRACE
+    fprintf(stderr, "enter row %d sign %d viol %.3e nw %d\n", enter, enter_sign, worst, ws->nw);
+#endif
+    const EnterResult entered = Enter(ws, enter, enter_sign, limits, iterations, &status);
+    if (entered == EnterResult::kStop) return status;
+    if (entered == EnterResult::kSkipped) continue;
+    ++*iterations;
+    if (OutOfBudget(limits, *iterations, &status)) return status;
+  }
+}
+
+}  // namespace hyq::qp::internal

@@ -1,0 +1,87 @@
+// KKT residuals of the unregularised problem (definitions in qp/problem.h), plus the small
+// helpers of problem.h.
+#include <algorithm>
+#include <cmath>
+
+#include "qp/problem.h"
+
+namespace hyq::qp {
+
+void Problem::Resize(int n, int m) noexcept {
+  n = std::clamp(n, 0, kMaxVariables);
+  m = std::clamp(m, 0, kMaxConstraints);
+  H.setZero(n, n);
+  g.setZero(n);
+  lb.setConstant(n, -kInf);
+  ub.setConstant(n, kInf);
+  A.setZero(m, n);
+  lbA.setConstant(m, -kInf);
+  ubA.setConstant(m, kInf);
+}
+
+const char* ToString(Status status) noexcept {
+  switch (status) {
+    case Status::kOptimal: return "optimal";
+    case Status::kInfeasible: return "infeasible";
+    case Status::kUnbounded: return "unbounded";
+    case Status::kIterationLimit: return "iteration_limit";
+    case Status::kDeadline: return "deadline";
+    case Status::kBadInput: return "bad_input";
+  }
+  return "unknown";
+}
+
+double KktResiduals::max() const noexcept {
+  return std::max({stationarity, primal, dual, complementarity});
+}
+
+KktResiduals ComputeKktResiduals(const Problem& p, const VectorN& x, const VectorN& y_bounds,
+                                 const VectorM& y_constraints) noexcept {
+  const int n = p.n(), m = p.m();
+  double hx_max = 0, g_max = 0, yb_max = 0, aty_max = 0, stat = 0;
+  double x_max = 0, ax_max = 0, y_max = 0;
+  for (int i = 0; i < n; ++i) {
+    double hx = 0, aty = 0;
+    for (int j = 0; j < n; ++j) hx += p.H(i, j) * x(j);
+    for (int k = 0; k < m; ++k) aty += p.A(k, i) * y_constraints(k);
+    hx_max = std::max(hx_max, std::fabs(hx));
+    g_max = std::max(g_max, std::fabs(p.g(i)));
+    yb_max = std::max(yb_max, std::fabs(y_bounds(i)));
+    aty_max = std::max(aty_max, std::fabs(aty));
+    stat = std::max(stat, std::fabs(hx + p.g(i) + y_bounds(i) + aty));
+    x_max = std::max(x_max, std::fabs(x(i)));
+  }
+  y_max = yb_max;
+  for (int k = 0; k < m; ++k) {
+    y_max = std::max(y_max, std::fabs(y_constraints(k)));
+    double ax = 0;
+    for (int j = 0; j < n; ++j) ax += p.A(k, j) * x(j);
+    ax_max = std::max(ax_max, std::fabs(ax));
+  }
+  double primal = 0, dual = 0, compl_ = 0;
+  auto row = [&](double value, double lo, double hi, double y) {
+    primal = std::max({primal, value - hi, lo - value});
+    if (y > 0) {
+      if (std::isfinite(hi)) compl_ = std::max(compl_, y * std::fabs(hi - value));
+      else dual = std::max(dual, y);
+    } else if (y < 0) {
+      if (std::isfinite(lo)) compl_ = std::max(compl_, -y * std::fabs(value - lo));
+      else dual = std::max(dual, -y);
+    }
+  };
+  for (int i = 0; i < n; ++i) row(x(i), p.lb(i), p.ub(i), y_bounds(i));
+  for (int k = 0; k < m; ++k) {
+    double ax = 0;
+    for (int j = 0; j < n; ++j) ax += p.A(k, j) * x(j);
+    row(ax, p.lbA(k), p.ubA(k), y_constraints(k));
+  }
+  const double value_scale = std::max({1.0, x_max, ax_max});
+  KktResiduals r;
+  r.stationarity = stat / std::max({1.0, hx_max, g_max, yb_max, aty_max});
+  r.primal = primal / value_scale;
+  r.dual = dual / std::max(1.0, y_max);
+  r.complementarity = compl_ / (std::max(1.0, y_max) * value_scale);
+  return r;
+}
+
+}  // namespace hyq::qp

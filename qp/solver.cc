@@ -1,0 +1,342 @@
+#include "qp/solver.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "qp/dual_active_set.h"
+#include "qp/workspace.h"
+
+namespace hyq::qp {
+namespace {
+
+using internal::InnerStatus;
+using internal::kN;
+using internal::Workspace;
+using Clock = std::chrono::steady_clock;
+
+// A pivot below this fraction of H_ii means H is (numerically) singular: use ε > 0.
+constexpr double kPositiveDefiniteFloor = 1e-11;
+// ε is divided by this when the proximal iterations converge slowly, down to kMinRelativeEps.
+constexpr double kEpsReduction = 1e-2;
+constexpr double kMinRelativeEps = 1e-13;
+// A proximal step δ is a direction of unboundedness when, normalised, these hold (relative).
+constexpr double kRayTolerance = 1e-8;
+// Refinement steps per outer iteration (each costs about one active-set iteration).
+constexpr int kMaxRefinements = 3;
+
+double MaxAbs(const double* a, int n) {
+  double s = 0.0;
+  for (int i = 0; i < n; ++i) s = std::max(s, std::fabs(a[i]));
+  return s;
+}
+
+// cx = C x_k, q = H x_k + g, v = L⁻¹ q
+void Linearise(Workspace* ws) {
+  const Problem& p = *ws->problem;
+  const int n = ws->n, m = ws->m;
+  for (int i = 0; i < n; ++i) {
+    ws->cx[i] = ws->xk[i];
+    ws->q[i] = p.g(i);
+  }
+  for (int i = 0; i < m; ++i) ws->cx[n + i] = 0.0;
+  for (int j = 0; j < n; ++j) {
+    const double xj = ws->xk[j];
+    if (xj == 0.0) continue;
+    for (int i = 0; i < n; ++i) ws->q[i] += p.H(i, j) * xj;
+    for (int i = 0; i < m; ++i) ws->cx[n + i] += p.A(i, j) * xj;
+  }
+  for (int i = 0; i < n; ++i) {
+    const double* Li = &ws->chol[i * kN];
+    double s = ws->q[i];
+    for (int k = 0; k < i; ++k) s -= Li[k] * ws->v[k];
+    ws->v[i] = s / Li[i];
+  }
+}
+
+// x, multipliers and active set from x_k + δ and W
+void WriteIterate(const Workspace& ws, Solution* sol) {
+  const int n = ws.n, m = ws.m;
+  for (int i = 0; i < n; ++i) sol->x(i) = ws.xk[i] + ws.delta[i];
+  sol->y_bounds.setZero(n);
+  sol->y_constraints.setZero(m);
+  for (int i = 0; i < ws.rows; ++i) {
+    const Active a = ws.is_eq[i] ? Active::kEquality : Active::kInactive;
+    if (i < n) sol->active_bounds[i] = a;
+    else sol->active_constraints[i - n] = a;
+  }
+  for (int p = 0; p < ws.nw; ++p) {
+    const int row = ws.w_row[p];
+    const double y = ws.w_sign[p] * ws.lambda[p];
+    const Active a = ws.is_eq[row] ? Active::kEquality
+                                   : (ws.w_sign[p] > 0 ? Active::kUpper : Active::kLower);
+    if (row < n) {
+      sol->y_bounds(row) = y;
+      sol->active_bounds[row] = a;
+    } else {
+      sol->y_constraints(row - n) = y;
+      sol->active_constraints[row - n] = a;
+    }
+  }
+}
+
+double Objective(const Problem& p, const VectorN& x) {
+  const int n = p.n();
+  double f = 0.0;
+  for (int i = 0; i < n; ++i) {
+    double hx = 0.0;
+    for (int j = 0; j < n; ++j) hx += p.H(i, j) * x(j);
+    f += x(i) * (0.5 * hx + p.g(i));
+  }
+  return f;
+}
+
+// δ / ‖δ‖ is a certificate of unboundedness: H r ≈ 0, gᵀ r < 0 and r in the recession cone.
+bool IsRay(const Workspace& ws, double* r) {
+  const Problem& p = *ws.problem;
+  const int n = ws.n, m = ws.m;
+  const double dmax = MaxAbs(ws.delta.data(), n);
+  if (!(dmax > 1e-6 * (1.0 + MaxAbs(ws.xk.data(), n)))) return false;
+  for (int i = 0; i < n; ++i) r[i] = ws.delta[i] / dmax;
+  double gr = 0.0;
+  for (int i = 0; i < n; ++i) {
+    double hr = 0.0;
+    for (int j = 0; j < n; ++j) hr += p.H(i, j) * r[j];
+    if (std::fabs(hr) > kRayTolerance * std::max(ws.hmax, 1e-300)) return false;
+    gr += p.g(i) * r[i];
+  }
+  if (!(gr < -kRayTolerance * std::max(MaxAbs(p.g.data(), n), 1e-300))) return false;
+  for (int i = 0; i < n; ++i) {
+    if (std::isfinite(p.ub(i)) && r[i] > kRayTolerance) return false;
+    if (std::isfinite(p.lb(i)) && r[i] < -kRayTolerance) return false;
+  }
+  for (int k = 0; k < m; ++k) {
+    double ar = 0.0, anorm = 0.0;
+    for (int j = 0; j < n; ++j) {
+      ar += p.A(k, j) * r[j];
+      anorm = std::max(anorm, std::fabs(p.A(k, j)));
+    }
+    if (std::isfinite(p.ubA(k)) && ar > kRayTolerance * anorm) return false;
+    if (std::isfinite(p.lbA(k)) && ar < -kRayTolerance * anorm) return false;
+  }
+  return true;
+}
+
+void SizeSolution(Solution* sol, int n, int m) {
+  sol->x.setZero(n);
+  sol->y_bounds.setZero(n);
+  sol->y_constraints.setZero(m);
+  sol->direction.setZero(n);
+  sol->active_bounds.fill(Active::kInactive);
+  sol->active_constraints.fill(Active::kInactive);
+}
+
+}  // namespace
+
+bool IsWellFormed(const Problem& p) noexcept {
+  const auto n = p.H.rows(), m = p.A.rows();
+  if (n < 1 || p.H.cols() != n || p.g.size() != n || p.lb.size() != n || p.ub.size() != n)
+    return false;
+  if ((m > 0 && p.A.cols() != n) || p.lbA.size() != m || p.ubA.size() != m) return false;
+  double hmax = 0.0;
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (!std::isfinite(p.H(i, j))) return false;
+      hmax = std::max(hmax, std::fabs(p.H(i, j)));
+    }
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index i = j + 1; i < n; ++i)
+      if (std::fabs(p.H(i, j) - p.H(j, i)) > 1e-10 * hmax) return false;
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!std::isfinite(p.g(i))) return false;
+    if (std::isnan(p.lb(i)) || std::isnan(p.ub(i)) || p.lb(i) > p.ub(i)) return false;
+    if (p.lb(i) == kInf || p.ub(i) == -kInf) return false;
+  }
+  for (Eigen::Index k = 0; k < m; ++k) {
+    for (Eigen::Index j = 0; j < n; ++j)
+      if (!std::isfinite(p.A(k, j))) return false;
+    if (std::isnan(p.lbA(k)) || std::isnan(p.ubA(k)) || p.lbA(k) > p.ubA(k)) return false;
+    if (p.lbA(k) == kInf || p.ubA(k) == -kInf) return false;
+  }
+  return true;
+}
+
+Solver::Solver(const Settings& settings)
+    : settings_(settings), ws_(std::make_unique<internal::Workspace>()) {}
+Solver::~Solver() = default;
+Solver::Solver(Solver&&) noexcept = default;
+Solver& Solver::operator=(Solver&&) noexcept = default;
+
+Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noexcept {
+  const Clock::time_point t0 = Clock::now();
+  Workspace& ws = *ws_;
+  const int n = static_cast<int>(p.H.rows()), m = static_cast<int>(p.A.rows());
+  const bool warm = budget.warm_start && sol->x.size() == n && sol->y_bounds.size() == n &&
+                    sol->y_constraints.size() == m && sol->status != Status::kBadInput;
+  // keep the warm start (previous x and signed multipliers per row) before *sol is overwritten
+  if (warm) {
+    for (int i = 0; i < n; ++i) {
+      ws.xk[i] = sol->x(i);
+      ws.cert[i] = sol->active_bounds[i] == Active::kInactive ? 0.0 : sol->y_bounds(i);
+      ws.is_eq[i] = static_cast<std::uint8_t>(sol->active_bounds[i]);
+    }
+    for (int k = 0; k < m; ++k) {
+      ws.cert[n + k] =
+          sol->active_constraints[k] == Active::kInactive ? 0.0 : sol->y_constraints(k);
+      ws.is_eq[n + k] = static_cast<std::uint8_t>(sol->active_constraints[k]);
+    }
+  }
+  SizeSolution(sol, n, m);
+  sol->iterations = 0;
+  sol->outer_iterations = 0;
+  sol->objective = 0.0;
+  sol->regularisation = 0.0;
+  sol->kkt = KktResiduals{};
+  auto finish = [&](Status status) {
+    sol->status = status;
+    sol->solve_time_s = std::chrono::duration<double>(Clock::now() - t0).count();
+    return status;
+  };
+  if (!IsWellFormed(p)) return finish(Status::kBadInput);
+
+  ws.problem = &p;
+  ws.n = n;
+  ws.m = m;
+  ws.rows = n + m;
+  // warm-start side per row: +1 upper, −1 lower, 0 none (from the saved Active codes)
+  std::array<std::int8_t, kMaxRows> side{};
+  if (warm) {
+    for (int i = 0; i < ws.rows; ++i) {
+      const auto a = static_cast<Active>(static_cast<std::int8_t>(ws.is_eq[i]));
+      side[i] = a == Active::kUpper ? 1 : a == Active::kLower ? -1 : a == Active::kEquality ? 2 : 0;
+    }
+  }
+  for (int i = 0; i < n; ++i) {
+    ws.lo[i] = p.lb(i);
+    ws.hi[i] = p.ub(i);
+  }
+  for (int k = 0; k < m; ++k) {
+    ws.lo[n + k] = p.lbA(k);
+    ws.hi[n + k] = p.ubA(k);
+  }
+  ws.hmax = 0.0;
+  for (int i = 0; i < ws.rows; ++i) {
+    ws.is_eq[i] = ws.lo[i] == ws.hi[i];
+    ws.pos_of[i] = -1;
+  }
+  for (int i = 0; i < n; ++i) ws.hmax = std::max(ws.hmax, p.H(i, i));
+  // proximal centre: the previous answer, or 0, clipped into the bounds
+  for (int i = 0; i < n; ++i) {
+    const double x0 = warm ? ws.xk[i] : 0.0;
+    ws.xk[i] = std::clamp(x0, p.lb(i), p.ub(i));
+  }
+
+  // H + εI = L Lᵀ with ε = 0 when H is safely positive definite
+  ws.eps = 0.0;
+  if (!internal::FactorHessian(&ws, 0.0, kPositiveDefiniteFloor)) {
+    ws.eps = settings_.proximal_weight * (ws.hmax > 0.0 ? ws.hmax : 1.0);
+    if (!internal::FactorHessian(&ws, ws.eps, 0.0)) return finish(Status::kBadInput);
+  }
+  const double eps_floor = kMinRelativeEps * (ws.hmax > 0.0 ? ws.hmax : 1.0);
+
+  Linearise(&ws);
+  ws.nw = 0;
+  if (warm) {
+    for (int i = 0; i < ws.rows; ++i) {
+      if (side[i] == 0) continue;
+      const double y = ws.cert[i];
+      const int sign = side[i] == 2 ? (y < 0.0 ? -1 : 1) : side[i];
+      if (side[i] == 2 && !ws.is_eq[i]) continue;  // was an equality, is not any more
+      internal::AppendIfIndependent(&ws, i, sign, std::max(0.0, sign * y),
+                                    settings_.dependence_tolerance);
+    }
+  }
+
+  internal::InnerLimits limits;
+  limits.has_deadline = budget.deadline.has_value();
+  if (limits.has_deadline) limits.deadline = *budget.deadline;
+  limits.primal_tolerance = settings_.primal_tolerance;
+  limits.dependence_tolerance = settings_.dependence_tolerance;
+
+  int iterations = 0;
+  double step_prev = 0.0;
+  bool have_iterate = false;
+  Status status = Status::kIterationLimit;
+  for (int outer = 0;; ++outer) {
+    if (outer > 0) {
+      Linearise(&ws);
+      internal::RefreshRightHandSides(&ws);
+    }
+    int inner = 0;
+    limits.max_iterations = budget.max_iterations - iterations;
+    const InnerStatus inner_status = internal::SolveSubproblem(&ws, limits, &inner);
+    iterations += inner + 1;
+    sol->iterations = iterations;
+    sol->outer_iterations = outer + 1;
+    sol->regularisation = ws.eps;
+    if (inner_status == InnerStatus::kInfeasible) {
+      // the certificate, normalised to ‖w‖∞ = 1, in place of the multipliers
+      const double wmax = std::max(MaxAbs(ws.cert.data(), ws.rows), 1e-300);
+      for (int i = 0; i < n; ++i) {
+        sol->x(i) = ws.xk[i];
+        sol->y_bounds(i) = ws.cert[i] / wmax;
+      }
+      for (int k = 0; k < m; ++k) sol->y_constraints(k) = ws.cert[n + k] / wmax;
+      status = Status::kInfeasible;
+      break;
+    }
+    if (inner_status != InnerStatus::kOptimal) {
+      status = inner_status == InnerStatus::kDeadline ? Status::kDeadline
+                                                      : Status::kIterationLimit;
+      if (!have_iterate) {
+        internal::ComputeStep(&ws);
+        WriteIterate(ws, sol);
+        sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      }
+      break;
+    }
+    WriteIterate(ws, sol);
+    have_iterate = true;
+    sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+    // iterative refinement on W when the factorisations' rounding shows (large cond(H))
+    for (int r = 0; r < kMaxRefinements && sol->kkt.max() > settings_.kkt_tolerance; ++r) {
+      internal::RefineOnWorkingSet(&ws);
+      WriteIterate(ws, sol);
+      sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+    }
+    if (sol->kkt.max() <= settings_.kkt_tolerance) {
+      status = Status::kOptimal;
+      break;
+    }
+    if (ws.eps > 0.0 && IsRay(ws, sol->direction.data())) {
+      status = Status::kUnbounded;
+      break;
+    }
+    sol->direction.setZero();
+    if (outer + 1 >= settings_.max_outer_iterations || iterations >= budget.max_iterations) {
+      status = Status::kIterationLimit;
+      break;
+    }
+    if (limits.has_deadline && Clock::now() >= limits.deadline) {
+      status = Status::kDeadline;
+      break;
+    }
+    // the next proximal centre is this iterate
+    const double step = MaxAbs(ws.delta.data(), n);
+    for (int i = 0; i < n; ++i) ws.xk[i] += ws.delta[i];
+    // slow linear convergence (small curvature against ε on the active face): smaller ε
+    if (ws.eps > eps_floor && inner == 0 && outer > 0 && step > 0.25 * step_prev) {
+      const double eps_new = std::max(eps_floor, ws.eps * kEpsReduction);
+      if (internal::FactorHessian(&ws, eps_new, 0.0)) {
+        ws.eps = eps_new;
+        internal::RebuildWorkingSet(&ws, settings_.dependence_tolerance);
+      } else {
+        internal::FactorHessian(&ws, ws.eps, 0.0);
+      }
+    }
+    step_prev = step;
+  }
+  sol->objective = Objective(p, sol->x);
+  return finish(status);
+}
+
+}  // namespace hyq::qp

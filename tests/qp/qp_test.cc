@@ -1,0 +1,449 @@
+// qp/: planted solutions, KKT certificates, degenerate and infeasible problems, warm starts,
+// statuses and the no-allocation proof (docs/qp.md).
+#include <chrono>
+#include <cmath>
+#include <random>
+#include <string>
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+
+#include "qp/solver.h"
+#include "tests/qp/qp_test_problems.h"
+#include "tests/support/no_heap_guard.h"
+
+namespace hyq::qp {
+namespace {
+
+using testing::MakePlanted;
+using testing::Planted;
+using testing::PlantedOptions;
+
+constexpr double kKktLimit = 1e-9;
+
+// A Farkas certificate: w (bounds, constraints) with w_b + Aᵀ w_c = 0 and
+// Σ_{w>0} w·upper + Σ_{w<0} w·lower < 0 (so no x can satisfy every row).
+void ExpectFarkas(const Problem& p, const Solution& s) {
+  const int n = p.n(), m = p.m();
+  Eigen::VectorXd r = s.y_bounds;
+  if (m > 0) r += p.A.transpose() * s.y_constraints;
+  double wmax = s.y_bounds.cwiseAbs().maxCoeff();
+  if (m > 0) wmax = std::max(wmax, s.y_constraints.cwiseAbs().maxCoeff());
+  ASSERT_GT(wmax, 0.0);
+  const double amax = m > 0 ? std::max(1.0, p.A.cwiseAbs().maxCoeff()) : 1.0;
+  EXPECT_LE(r.cwiseAbs().maxCoeff(), 1e-9 * wmax * amax);
+  double gap = 0.0, scale = 0.0;
+  auto add = [&](double w, double lo, double hi) {
+    if (w > 0) {
+      ASSERT_TRUE(std::isfinite(hi));
+      gap += w * hi;
+      scale = std::max(scale, std::fabs(w * hi));
+    } else if (w < 0) {
+      ASSERT_TRUE(std::isfinite(lo));
+      gap += w * lo;
+      scale = std::max(scale, std::fabs(w * lo));
+    }
+  };
+  for (int i = 0; i < n; ++i) add(s.y_bounds(i), p.lb(i), p.ub(i));
+  for (int k = 0; k < m; ++k) add(s.y_constraints(k), p.lbA(k), p.ubA(k));
+  EXPECT_LT(gap, -1e-9 * std::max(1.0, scale));
+}
+
+void ExpectKkt(const Problem& p, const Solution& s, const std::string& what) {
+  const KktResiduals r = ComputeKktResiduals(p, s.x, s.y_bounds, s.y_constraints);
+  EXPECT_LE(r.stationarity, kKktLimit) << what;
+  EXPECT_LE(r.primal, kKktLimit) << what;
+  EXPECT_LE(r.dual, kKktLimit) << what;
+  EXPECT_LE(r.complementarity, kKktLimit) << what;
+  EXPECT_LE(s.kkt.max(), kKktLimit) << what;
+}
+
+void ExpectPlanted(const Planted& t, const Solution& s, double tol, const std::string& what) {
+  const int n = t.problem.n(), m = t.problem.m();
+  ASSERT_EQ(s.status, Status::kOptimal) << what << " kkt " << s.kkt.max();
+  ExpectKkt(t.problem, s, what);
+  EXPECT_LE((s.x - t.x).cwiseAbs().maxCoeff(), tol) << what;
+  EXPECT_LE((s.y_bounds - t.y_bounds).cwiseAbs().maxCoeff(), tol * 10) << what;
+  if (m > 0) {
+    EXPECT_LE((s.y_constraints - t.y_constraints).cwiseAbs().maxCoeff(), tol * 10) << what;
+  }
+  for (int i = 0; i < n; ++i) EXPECT_EQ(s.active_bounds[i], t.active_bounds[i]) << what << " b" << i;
+  for (int k = 0; k < m; ++k)
+    EXPECT_EQ(s.active_constraints[k], t.active_constraints[k]) << what << " c" << k;
+}
+
+struct PlantedCase {
+  PlantedOptions o;
+  double x_tol;
+  // x is only as accurate as (KKT residual) × (condition of the reduced problem): the
+  // ill-conditioned singular case asks for tighter KKT residuals to pin x down
+  double kkt_tolerance = Settings{}.kkt_tolerance;
+};
+
+TEST(QpPlanted, WellConditionedToIllConditioned) {
+  std::mt19937_64 rng(1);
+  Solver solver;
+  const PlantedCase cases[] = {
+      {{.n = 5, .m = 4, .condition = 1, .active_bounds = 1, .active_constraints = 2}, 1e-12},
+      {{.n = 10, .m = 10, .condition = 1e2, .active_bounds = 2, .active_constraints = 3}, 1e-11},
+      {{.n = 20, .m = 28, .condition = 1e4, .active_bounds = 3, .active_constraints = 8}, 1e-9},
+      {{.n = 20, .m = 28, .condition = 1e8, .active_bounds = 3, .active_constraints = 8}, 1e-5},
+      {{.n = 40, .m = 80, .condition = 1e6, .active_bounds = 8, .active_constraints = 20}, 1e-7},
+      {{.n = 40, .m = 80, .condition = 1e8, .active_bounds = 10, .active_constraints = 25}, 1e-5},
+      {{.n = 20, .m = 20, .condition = 1e3, .active_bounds = 2, .active_constraints = 8,
+        .equalities = 4}, 1e-10},
+  };
+  for (const PlantedCase& c : cases) {
+    for (int rep = 0; rep < 20; ++rep) {
+      const Planted t = MakePlanted(c.o, &rng);
+      Solution s;
+      (void)solver.Solve(t.problem, Budget{}, &s);
+      ExpectPlanted(t, s, c.x_tol,
+                    "n=" + std::to_string(c.o.n) + " cond=" + std::to_string(c.o.condition) +
+                        " rep=" + std::to_string(rep));
+    }
+  }
+}
+
+TEST(QpPlanted, RankDeficientHessian) {
+  std::mt19937_64 rng(2);
+  const PlantedCase cases[] = {
+      // n − rank ≤ number of active rows, so x* is unique
+      {{.n = 10, .m = 10, .condition = 1e2, .rank = 6, .active_bounds = 2, .active_constraints = 3}, 1e-7},
+      {{.n = 20, .m = 28, .condition = 1e3, .rank = 6, .active_bounds = 6, .active_constraints = 10}, 1e-7},
+      {{.n = 20, .m = 28, .condition = 1e8, .rank = 10, .active_bounds = 4, .active_constraints = 8}, 1e-4, 1e-14},
+      {{.n = 30, .m = 40, .condition = 1e4, .rank = 15, .active_bounds = 5, .active_constraints = 12}, 1e-6, 1e-14},
+  };
+  for (const PlantedCase& c : cases) {
+    Settings settings;
+    settings.kkt_tolerance = c.kkt_tolerance;
+    Solver solver(settings);
+    for (int rep = 0; rep < 20; ++rep) {
+      const Planted t = MakePlanted(c.o, &rng);
+      Solution s;
+      (void)solver.Solve(t.problem, Budget{}, &s);
+      ExpectPlanted(t, s, c.x_tol,
+                    "rank=" + std::to_string(c.o.rank) + " n=" + std::to_string(c.o.n) +
+                        " rep=" + std::to_string(rep));
+      EXPECT_GT(s.regularisation, 0.0);
+    }
+  }
+}
+
+TEST(QpPlanted, LinearProgramAtAVertex) {
+  std::mt19937_64 rng(3);
+  Solver solver;
+  for (int rep = 0; rep < 30; ++rep) {
+    PlantedOptions o{.n = 12, .m = 16, .rank = 0, .active_bounds = 5, .active_constraints = 7};
+    const Planted t = MakePlanted(o, &rng);
+    ASSERT_EQ(t.problem.H.cwiseAbs().maxCoeff(), 0.0);
+    Solution s;
+    (void)solver.Solve(t.problem, Budget{}, &s);
+    ExpectPlanted(t, s, 1e-9, "LP rep " + std::to_string(rep));
+  }
+}
+
+TEST(QpDegenerate, NothingActive) {
+  std::mt19937_64 rng(4);
+  Solver solver;
+  const Planted t = MakePlanted({.n = 15, .m = 20, .condition = 1e3, .active_bounds = 0,
+                                 .active_constraints = 0}, &rng);
+  Solution s;
+  (void)solver.Solve(t.problem, Budget{}, &s);
+  ExpectPlanted(t, s, 1e-11, "nothing active");
+  EXPECT_EQ(s.iterations, 1);  // one outer iteration, no active-set change
+}
+
+TEST(QpDegenerate, AllBoundsActive) {
+  std::mt19937_64 rng(5);
+  Solver solver;
+  for (int rank : {20, 5, 0}) {
+    const Planted t = MakePlanted({.n = 20, .m = 10, .condition = 1e2, .rank = rank,
+                                   .active_bounds = 20, .active_constraints = 0}, &rng);
+    Solution s;
+    (void)solver.Solve(t.problem, Budget{}, &s);
+    ExpectPlanted(t, s, 1e-10, "all bounds, rank " + std::to_string(rank));
+  }
+}
+
+TEST(QpDegenerate, DuplicateAndDependentActiveRows) {
+  std::mt19937_64 rng(6);
+  Settings settings;
+  settings.kkt_tolerance = 1e-13;  // x is compared: tighter than the default (see QpPlanted)
+  Solver solver(settings);
+  for (int rep = 0; rep < 20; ++rep) {
+    Planted t = MakePlanted({.n = 10, .m = 8, .condition = 1e2, .rank = rep % 2 ? 10 : 4,
+                             .active_bounds = 3, .active_constraints = 4}, &rng);
+    Problem& p = t.problem;
+    // append: a copy of an active row, a copy of its bound pair, and a sum of two active rows
+    // whose bound is the sum of theirs (consistent, dependent)
+    Problem q;
+    q.Resize(p.n(), p.m() + 3);
+    q.H = p.H;
+    q.g = p.g;
+    q.lb = p.lb;
+    q.ub = p.ub;
+    q.A.topRows(p.m()) = p.A;
+    q.lbA.head(p.m()) = p.lbA;
+    q.ubA.head(p.m()) = p.ubA;
+    int a1 = -1, a2 = -1;
+    for (int k = 0; k < p.m(); ++k) {
+      if (t.active_constraints[k] != Active::kUpper) continue;
+      if (a1 < 0) {
+        a1 = k;
+      } else if (a2 < 0) {
+        a2 = k;
+      }
+    }
+    if (a1 < 0) continue;
+    const int m = p.m();
+    q.A.row(m) = p.A.row(a1);
+    q.lbA(m) = p.lbA(a1);
+    q.ubA(m) = p.ubA(a1);
+    q.A.row(m + 1) = 2.0 * p.A.row(a1);  // scaled duplicate
+    q.lbA(m + 1) = 2.0 * p.lbA(a1);
+    q.ubA(m + 1) = 2.0 * p.ubA(a1);
+    const int b = a2 >= 0 ? a2 : a1;
+    q.A.row(m + 2) = p.A.row(a1) + p.A.row(b);
+    q.lbA(m + 2) = -kInf;
+    q.ubA(m + 2) = p.ubA(a1) + p.ubA(b);
+    Solution s;
+    (void)solver.Solve(q, Budget{}, &s);
+    ASSERT_EQ(s.status, Status::kOptimal) << rep;
+    ExpectKkt(q, s, "dependent rows rep " + std::to_string(rep));
+    EXPECT_LE((s.x - t.x).cwiseAbs().maxCoeff(), 1e-8) << rep;
+    // the multipliers are not unique, but the total force on x is: y_b + Aᵀ y_c
+    const Eigen::VectorXd f_expected = t.y_bounds + p.A.transpose() * t.y_constraints;
+    const Eigen::VectorXd f = s.y_bounds + q.A.transpose() * s.y_constraints;
+    EXPECT_LE((f - f_expected).cwiseAbs().maxCoeff(), 1e-8) << rep;
+  }
+}
+
+TEST(QpInfeasible, CertificateVerified) {
+  std::mt19937_64 rng(7);
+  Solver solver;
+  // 1) bounds against a constraint: x ≥ 1 (bounds) and Σ x ≤ −1
+  {
+    Problem p;
+    p.Resize(4, 1);
+    p.H.setIdentity();
+    p.lb.setOnes();
+    p.A.setOnes();
+    p.ubA(0) = -1.0;
+    Solution s;
+    EXPECT_EQ(solver.Solve(p, Budget{}, &s), Status::kInfeasible);
+    ExpectFarkas(p, s);
+  }
+  // 2) random: rows of a feasible problem plus a row contradicting a positive combination
+  for (int rep = 0; rep < 40; ++rep) {
+    const int n = 8, m = 10;
+    Planted t = MakePlanted({.n = n, .m = m, .condition = 1e2, .rank = rep % 3 == 0 ? 3 : n,
+                             .active_bounds = 2, .active_constraints = 4}, &rng);
+    Problem p;
+    p.Resize(n, m + 1);
+    p.H = t.problem.H;
+    p.g = t.problem.g;
+    p.lb = t.problem.lb;
+    p.ub = t.problem.ub;
+    p.A.topRows(m) = t.problem.A;
+    p.lbA.head(m) = t.problem.lbA;
+    p.ubA.head(m) = t.problem.ubA;
+    // a_new = Σ_k c_k a_k over rows with a finite lower bound: a_newᵀx ≥ Σ c_k lbA_k always
+    // holds, so demand a_newᵀx ≤ Σ c_k lbA_k − 1
+    Eigen::VectorXd a = Eigen::VectorXd::Zero(n);
+    double lower = 0.0;
+    for (int k = 0; k < m; ++k)
+      if (std::isfinite(p.lbA(k))) {
+        const double c = std::uniform_real_distribution<double>(0.2, 1.0)(rng);
+        a += c * p.A.row(k).transpose();
+        lower += c * p.lbA(k);
+      }
+    p.A.row(m) = a.transpose();
+    p.ubA(m) = lower - 1.0;
+    Solution s;
+    EXPECT_EQ(solver.Solve(p, Budget{}, &s), Status::kInfeasible) << rep;
+    ExpectFarkas(p, s);
+  }
+  // 3) contradicting equalities in an LP
+  {
+    Problem p;
+    p.Resize(3, 3);
+    p.A << 1, 1, 0, 0, 1, 1, 1, 2, 1;
+    p.lbA << 1, 1, 3;
+    p.ubA << 1, 1, 3;  // row 3 = row 1 + row 2 demands 2 = 3
+    p.g << 1, 1, 1;
+    Solution s;
+    EXPECT_EQ(solver.Solve(p, Budget{}, &s), Status::kInfeasible);
+    ExpectFarkas(p, s);
+  }
+}
+
+TEST(QpUnbounded, DirectionVerified) {
+  Solver solver;
+  // LP: min −x0 − x1 s.t. x ≥ 0, x0 − x1 ≤ 1
+  Problem p;
+  p.Resize(3, 1);
+  p.g << -1, -1, 0;
+  p.lb.setZero();
+  p.ub(2) = 1.0;
+  p.A << 1, -1, 0;
+  p.ubA(0) = 1.0;
+  Solution s;
+  EXPECT_EQ(solver.Solve(p, Budget{}, &s), Status::kUnbounded);
+  const Eigen::VectorXd d = s.direction;
+  EXPECT_NEAR(d.cwiseAbs().maxCoeff(), 1.0, 1e-12);
+  EXPECT_LT(p.g.dot(d), -1e-6);
+  EXPECT_GE(d(0), -1e-9);
+  EXPECT_GE(d(1), -1e-9);
+  EXPECT_LE(std::fabs(d(2)), 1e-9);
+  EXPECT_LE((p.A * d)(0), 1e-9);
+  // semi-definite QP: H = diag(1, 0), g = (0, −1), x1 ≤ nothing
+  Problem q;
+  q.Resize(2, 0);
+  q.H(0, 0) = 1.0;
+  q.g << 0.5, -1.0;
+  EXPECT_EQ(solver.Solve(q, Budget{}, &s), Status::kUnbounded);
+  EXPECT_NEAR(s.direction(1), 1.0, 1e-9);
+  EXPECT_NEAR(s.direction(0), 0.0, 1e-9);
+}
+
+TEST(QpWarmStart, SameAnswerAsColdStart) {
+  std::mt19937_64 rng(8);
+  Solver cold_solver, warm_solver;
+  for (int rep = 0; rep < 30; ++rep) {
+    const int rank = rep % 3 == 0 ? 12 : 20;
+    Planted t = MakePlanted({.n = 20, .m = 28, .condition = 1e3, .rank = rank, .active_bounds = 4,
+                             .active_constraints = 8}, &rng);
+    Solution warm;
+    ASSERT_EQ(warm_solver.Solve(t.problem, Budget{}, &warm), Status::kOptimal);
+    // the next cycle: a nearby problem
+    std::normal_distribution<double> N(0.0, 1e-2);
+    for (int i = 0; i < t.problem.n(); ++i) t.problem.g(i) += N(rng);
+    for (int k = 0; k < t.problem.m(); ++k) {
+      const double shift = N(rng);
+      t.problem.lbA(k) += shift;
+      t.problem.ubA(k) += shift;
+    }
+    Solution cold;
+    ASSERT_EQ(cold_solver.Solve(t.problem, Budget{}, &cold), Status::kOptimal);
+    Budget budget;
+    budget.warm_start = true;
+    ASSERT_EQ(warm_solver.Solve(t.problem, budget, &warm), Status::kOptimal);
+    ExpectKkt(t.problem, warm, "warm");
+    EXPECT_LE((warm.x - cold.x).cwiseAbs().maxCoeff(), 1e-8) << rep;
+    EXPECT_LE((warm.y_constraints - cold.y_constraints).cwiseAbs().maxCoeff(), 1e-7) << rep;
+    EXPECT_LE(warm.iterations, cold.iterations) << rep;
+  }
+}
+
+TEST(QpAllocation, NoHeapInColdOrWarmSolve) {
+  HYQ_REQUIRE_HEAP_HOOKS();
+  std::mt19937_64 rng(9);
+  Solver solver;
+  const Planted t = MakePlanted({.n = 20, .m = 28, .condition = 1e4, .active_bounds = 4,
+                                 .active_constraints = 8}, &rng);
+  const Planted singular = MakePlanted({.n = 20, .m = 28, .condition = 1e2, .rank = 6,
+                                        .active_bounds = 6, .active_constraints = 10}, &rng);
+  Solution s;
+  Budget warm;
+  warm.warm_start = true;
+  warm.deadline = std::chrono::steady_clock::now() + std::chrono::hours(1);
+  std::size_t allocations = 0;
+  {
+    hyq::testing::NoHeapGuard guard;
+    (void)solver.Solve(t.problem, Budget{}, &s);    // cold
+    (void)solver.Solve(t.problem, warm, &s);        // warm, with a deadline
+    (void)solver.Solve(singular.problem, Budget{}, &s);  // proximal path
+    (void)solver.Solve(singular.problem, warm, &s);
+    Problem bad;  // no sizes: bad input, also without allocating
+    (void)solver.Solve(bad, Budget{}, &s);
+    allocations = guard.allocations();
+  }
+  EXPECT_EQ(allocations, 0u);
+}
+
+TEST(QpStatus, BadInput) {
+  Solver solver;
+  std::mt19937_64 rng(10);
+  const Planted t = MakePlanted({.n = 6, .m = 4}, &rng);
+  Solution s;
+  auto expect_bad = [&](Problem p, const char* what) {
+    EXPECT_EQ(solver.Solve(p, Budget{}, &s), Status::kBadInput) << what;
+    EXPECT_EQ(s.status, Status::kBadInput) << what;
+  };
+  Problem p = t.problem;
+  p.H(1, 2) = std::nan("");
+  expect_bad(p, "NaN in H");
+  p = t.problem;
+  p.g(0) = kInf;
+  expect_bad(p, "Inf in g");
+  p = t.problem;
+  p.A(3, 1) = -kInf;
+  expect_bad(p, "Inf in A");
+  p = t.problem;
+  p.lb(2) = std::nan("");
+  expect_bad(p, "NaN bound");
+  p = t.problem;
+  p.lb(2) = 2.0;
+  p.ub(2) = 1.0;
+  expect_bad(p, "lb > ub");
+  p = t.problem;
+  p.lbA(1) = 3.0;
+  p.ubA(1) = -3.0;
+  expect_bad(p, "lbA > ubA");
+  p = t.problem;
+  p.g.resize(5);
+  expect_bad(p, "g size");
+  p = t.problem;
+  p.ubA.resize(3);
+  expect_bad(p, "ubA size");
+  p = t.problem;
+  p.H(0, 1) += 1.0;
+  expect_bad(p, "asymmetric H");
+  p = t.problem;
+  p.H(0, 0) = -1.0;
+  expect_bad(p, "indefinite H");
+  expect_bad(Problem{}, "empty");
+  EXPECT_STREQ(ToString(Status::kBadInput), "bad_input");
+}
+
+TEST(QpStatus, IterationLimitAndDeadlineReturnTheLastIterate) {
+  std::mt19937_64 rng(11);
+  Solver solver;
+  const Planted t = MakePlanted({.n = 40, .m = 80, .condition = 1e2, .active_bounds = 10,
+                                 .active_constraints = 25}, &rng);
+  Solution s;
+  Budget b;
+  b.max_iterations = 5;
+  EXPECT_EQ(solver.Solve(t.problem, b, &s), Status::kIterationLimit);
+  EXPECT_EQ(s.x.size(), 40);
+  EXPECT_TRUE(s.x.allFinite());
+  EXPECT_GT(s.kkt.primal, 0.0);  // not yet feasible, and it says so
+  b.max_iterations = 1000;
+  b.deadline = std::chrono::steady_clock::now();
+  EXPECT_EQ(solver.Solve(t.problem, b, &s), Status::kDeadline);
+  EXPECT_TRUE(s.x.allFinite());
+  // the full solve from the deadline's partial state still ends at the planted optimum
+  b.deadline.reset();
+  b.warm_start = true;
+  (void)solver.Solve(t.problem, b, &s);
+  ExpectPlanted(t, s, 1e-10, "after deadline");
+}
+
+TEST(QpIdShaped, RankSixHessianOptimal) {
+  std::mt19937_64 rng(12);
+  Solver solver;
+  int worst = 0;
+  for (int rep = 0; rep < 100; ++rep) {
+    const Problem p = testing::MakeIdShaped(4, &rng);
+    Solution s;
+    const Status st = solver.Solve(p, Budget{}, &s);
+    ASSERT_EQ(st, Status::kOptimal) << rep << " kkt " << s.kkt.max();
+    ExpectKkt(p, s, "ID " + std::to_string(rep));
+    worst = std::max(worst, s.iterations);
+  }
+  RecordProperty("worst_iterations", worst);
+}
+
+}  // namespace
+}  // namespace hyq::qp
