@@ -12,29 +12,20 @@ namespace {
 // How often one row may enter dependent on W (and swap with a blocking row) per subproblem.
 constexpr int kMaxDependentEntries = 2;
 
-double Dot(const double* a, const double* b, int n) {
-  double s = 0.0;
-  for (int i = 0; i < n; ++i) s += a[i] * b[i];
-  return s;
-}
-
 // z = L⁻¹ z in place, z zero above `first`
 void ForwardChol(const Workspace& ws, double* z, int first) {
   for (int i = first; i < ws.n; ++i) {
     const double* Li = &ws.chol[i * kN];
-    double s = z[i];
-    for (int k = first; k < i; ++k) s -= Li[k] * z[k];
-    z[i] = s / Li[i];
+    z[i] = (z[i] - Dot(Li + first, z + first, i - first)) / Li[i];
   }
 }
 
-// z = L⁻ᵀ z in place (column-oriented so that L is read by rows)
+// z = L⁻ᵀ z in place: z_i = (z_i − Σ_{k>i} L(k, i) z_k) / L(i, i), column i of L contiguous
 void BackwardChol(const Workspace& ws, double* z) {
-  for (int i = ws.n - 1; i >= 0; --i) {
-    const double* Li = &ws.chol[i * kN];
-    z[i] /= Li[i];
-    const double zi = z[i];
-    for (int k = 0; k < i; ++k) z[k] -= Li[k] * zi;
+  const int n = ws.n;
+  for (int i = n - 1; i >= 0; --i) {
+    const double* Ci = &ws.cholt[i * kN];
+    z[i] = (z[i] - Dot(Ci + i + 1, z + i + 1, n - i - 1)) / Ci[i];
   }
 }
 
@@ -116,8 +107,7 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
   double pivot = mm;
   for (int p = 0; p < nw; ++p) {
     const double* Lp = &ws->lw[p * kN];
-    double s = r[p];
-    for (int q = 0; q < p; ++q) s -= Lp[q] * r[q];
+    const double s = r[p] - Dot(Lp, r, p);
     r[p] = s;
     l[p] = s / ws->dw[p];
     pivot -= s * l[p];
@@ -162,9 +152,7 @@ void RefineCertificate(Workspace* ws) {
   double* y = ws->kvec.data();
   for (int q = 0; q < nw; ++q) {
     const double* Lq = &ws->lw[q * kN];
-    double s = -ws->w_sign[q] * Dot(&ws->mw[q * kN], r, n);
-    for (int k = 0; k < q; ++k) s -= Lq[k] * y[k];
-    y[q] = s;
+    y[q] = -ws->w_sign[q] * Dot(&ws->mw[q * kN], r, n) - Dot(Lq, y, q);
   }
   for (int q = 0; q < nw; ++q) y[q] /= ws->dw[q];
   for (int q = nw - 1; q >= 0; --q) {
@@ -250,12 +238,12 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
 bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   const Problem& p = *ws->problem;
   const int n = ws->n;
+  const double* h = p.H.data();
   for (int i = 0; i < n; ++i) {
     double* Li = &ws->chol[i * kN];
     for (int j = 0; j <= i; ++j) {
       const double* Lj = &ws->chol[j * kN];
-      double s = p.H(i, j);
-      for (int k = 0; k < j; ++k) s -= Li[k] * Lj[k];
+      double s = h[i + j * n] - Dot(Li, Lj, j);
       if (i == j) {
         s += eps;
         if (!(s > relative_floor * (p.H(i, i) + eps)) || !(s > 0.0)) return false;
@@ -265,6 +253,8 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
       }
     }
   }
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k <= i; ++k) ws->cholt[k * kN + i] = ws->chol[i * kN + k];
   return true;
 }
 
@@ -312,14 +302,7 @@ void ComputeStep(Workspace* ws) noexcept {
   const int m = ws->m;
   double* ad = cd + n;
   for (int i = 0; i < m; ++i) ad[i] = 0.0;
-  if (m > 0) {
-    const double* a = ws->problem->A.data();
-    for (int j = 0; j < n; ++j) {
-      const double dj = delta[j];
-      const double* col = a + j * m;
-      for (int i = 0; i < m; ++i) ad[i] += col[i] * dj;
-    }
-  }
+  if (m > 0) MultiplyA(*ws->problem, delta, ad);
 }
 
 double RefineOnWorkingSet(Workspace* ws) noexcept {
@@ -362,9 +345,7 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
   double* dl = ws->mnew.data();
   for (int q = 0; q < nw; ++q) {
     const double* Lq = &ws->lw[q * kN];
-    double s = -dd[q];
-    for (int k = 0; k < q; ++k) s -= Lq[k] * dl[k];
-    dl[q] = s;
+    dl[q] = -dd[q] - Dot(Lq, dl, q);
   }
   for (int q = 0; q < nw; ++q) dl[q] /= ws->dw[q];
   for (int q = nw - 1; q >= 0; --q) {
@@ -401,9 +382,7 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
     double* ls = ws->lambda_star.data();
     for (int p = 0; p < nw; ++p) {
       const double* Lp = &ws->lw[p * kN];
-      double s = -ws->d[p];
-      for (int q = 0; q < p; ++q) s -= Lp[q] * ls[q];
-      ls[p] = s;
+      ls[p] = -ws->d[p] - Dot(Lp, ls, p);
     }
     for (int p = 0; p < nw; ++p) ls[p] /= ws->dw[p];
     for (int p = nw - 1; p >= 0; --p) {
@@ -439,10 +418,10 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
       if (ws->pos_of[i] >= 0 || ws->skipped[i]) continue;
       const double value = ws->cx[i] + ws->cdelta[i];
       if (value > ws->hi[i]) {
-        const double up = (value - ws->hi[i]) / (1.0 + std::fabs(ws->hi[i]));
+        const double up = (value - ws->hi[i]) * ws->hi_scale[i];
         if (up > worst) worst = up, enter = i, enter_sign = 1;
       } else if (value < ws->lo[i]) {
-        const double down = (ws->lo[i] - value) / (1.0 + std::fabs(ws->lo[i]));
+        const double down = (ws->lo[i] - value) * ws->lo_scale[i];
         if (down > worst) worst = down, enter = i, enter_sign = -1;
       }
     }

@@ -145,12 +145,20 @@ Problem MakeRandomStrictlyConvex(int n, int m, double condition, std::mt19937_64
   p.A = Gaussian(m, n, rng);
   const Eigen::VectorXd x0 = 0.5 * Gaussian(n, 1, rng);
   const Eigen::VectorXd ax = p.A * x0;
-  for (int k = 0; k < m; ++k) {
-    p.ubA(k) = ax(k) + Uniform(0.0, 1.0, rng);
-    p.lbA(k) = ax(k) - Uniform(0.0, 1.0, rng);
-  }
+  for (int k = 0; k < m; ++k) p.ubA(k) = ax(k) + Uniform(0.0, 1.0, rng);
   p.g *= 5.0;
   return p;
+}
+
+void Perturb(double relative, bool move_g, std::mt19937_64* rng, Problem* p) {
+  std::normal_distribution<double> N(0.0, relative);
+  const double gs = std::max(1.0, p->g.cwiseAbs().maxCoeff());
+  for (int i = 0; move_g && i < p->n(); ++i) p->g(i) += gs * N(*rng);
+  for (int k = 0; k < p->m(); ++k) {
+    const double shift = N(*rng);
+    if (std::isfinite(p->lbA(k))) p->lbA(k) += shift;
+    if (std::isfinite(p->ubA(k))) p->ubA(k) += shift;
+  }
 }
 
 }  // namespace hyq::qp::testing

@@ -41,8 +41,13 @@ MatrixH RandomHessian(int n, double condition, int rank, std::mt19937_64* rng);
 /// row μ c_N − Σ c_D ≥ 0 per foot and 6 rows N v* ≥ 0 (non-penetration, v* = Z z + p).
 Problem MakeIdShaped(int feet, std::mt19937_64* rng);
 
-/// Random strictly convex problem: n variables, m two-sided inequalities A x ≤ b (A random,
-/// feasible at a random point), H with the given condition number.
+/// Random strictly convex problem: n variables, m one-sided inequalities A x ≤ b (A random,
+/// feasible at a random point, about a third active at the optimum), H with the given condition
+/// number.
 Problem MakeRandomStrictlyConvex(int n, int m, double condition, std::mt19937_64* rng);
+
+/// The next servo cycle's problem: the finite bounds of A's rows and (when move_g) g moved by
+/// `relative` (Gaussian). Keep g for ID-shaped problems: g ∈ range(Zᵀ) is what bounds them.
+void Perturb(double relative, bool move_g, std::mt19937_64* rng, Problem* p);
 
 }  // namespace hyq::qp::testing
