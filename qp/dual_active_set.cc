@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <utility>
 #ifdef QP_TRACE
 #include <cstdio>
 #endif
@@ -11,6 +12,8 @@ namespace {
 
 // How often one row may enter dependent on W (and swap with a blocking row) per subproblem.
 constexpr int kMaxDependentEntries = 2;
+// A Farkas certificate is accepted when ‖Cᵀ w‖ is below this (relative, see CertificateResidual).
+constexpr double kCertificateTolerance = 1e-12;
 
 // z = L⁻¹ z in place, z zero above `first`
 void ForwardChol(const Workspace& ws, double* z, int first) {
@@ -167,6 +170,64 @@ void RefineCertificate(Workspace* ws) {
   }
 }
 
+// With W full (n independent rows) every row is a combination of W's: s C_row = Σ c_p s_p C_p.
+// c from (4) goes through Kw, whose condition is that of C_W squared; when W is nearly
+// dependent that is too inaccurate for a certificate, so solve the square system
+//   [s_p C_pᵀ]_p c = s C_rowᵀ   by Gaussian elimination with partial pivoting, into ws->tmp2.
+void SolveFullWorkingSet(Workspace* ws, int row, int sign) {
+  const Problem& p = *ws->problem;
+  const int n = ws->n;
+  double* B = ws->square.data();  // B(i, q) = B[i + q * kN]
+  double* c = ws->kvec.data();
+  for (int q = 0; q < n; ++q) {
+    const int r = ws->w_row[q];
+    for (int i = 0; i < n; ++i)
+      B[i + q * kN] = ws->w_sign[q] * (r < n ? (i == r ? 1.0 : 0.0) : p.A(r - n, i));
+  }
+  for (int i = 0; i < n; ++i) c[i] = sign * (row < n ? (i == row ? 1.0 : 0.0) : p.A(row - n, i));
+  for (int k = 0; k < n; ++k) {
+    int piv = k;
+    for (int i = k + 1; i < n; ++i)
+      if (std::fabs(B[i + k * kN]) > std::fabs(B[piv + k * kN])) piv = i;
+    if (B[piv + k * kN] == 0.0) return;  // singular after all: keep c from (4)
+    if (piv != k) {
+      for (int q = k; q < n; ++q) std::swap(B[k + q * kN], B[piv + q * kN]);
+      std::swap(c[k], c[piv]);
+    }
+    const double inv = 1.0 / B[k + k * kN];
+    for (int i = k + 1; i < n; ++i) {
+      const double f = B[i + k * kN] * inv;
+      if (f == 0.0) continue;
+      for (int q = k + 1; q < n; ++q) B[i + q * kN] -= f * B[k + q * kN];
+      c[i] -= f * c[k];
+    }
+  }
+  for (int k = n - 1; k >= 0; --k) {
+    double s = c[k];
+    for (int q = k + 1; q < n; ++q) s -= B[k + q * kN] * c[q];
+    c[k] = s / B[k + k * kN];
+  }
+  for (int q = 0; q < n; ++q) ws->tmp2[q] = c[q];
+}
+
+// ‖Cᵀ w‖∞ / (‖w‖∞ · max(1, max |A_ij|)) for the certificate in ws->cert
+double CertificateResidual(const Workspace& ws) {
+  const Problem& p = *ws.problem;
+  const int n = ws.n, m = ws.m;
+  double r[kN];
+  double wmax = 0.0, amax = 1.0;
+  for (int i = 0; i < ws.rows; ++i) wmax = std::fmax(wmax, std::fabs(ws.cert[i]));
+  for (int i = 0; i < n; ++i) r[i] = ws.cert[i];
+  for (int k = 0; k < m; ++k)
+    for (int j = 0; j < n; ++j) {
+      r[j] += p.A(k, j) * ws.cert[n + k];
+      amax = std::fmax(amax, std::fabs(p.A(k, j)));
+    }
+  double rmax = 0.0;
+  for (int i = 0; i < n; ++i) rmax = std::fmax(rmax, std::fabs(r[i]));
+  return rmax / (std::fmax(wmax, 1e-300) * amax);
+}
+
 bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status) {
   if (iterations >= limits.max_iterations) {
     *status = InnerStatus::kIterationLimit;
@@ -197,6 +258,7 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
       ws->skipped[row] = 1;
       return EnterResult::kSkipped;
     }
+    if (ws->nw == ws->n) SolveFullWorkingSet(ws, row, sign);
     const double* c = ws->tmp2.data();
     double cmax = 0.0;
     for (int p = 0; p < ws->nw; ++p) cmax = std::fmax(cmax, std::fabs(c[p]));
@@ -218,8 +280,23 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
       }
       RefineCertificate(ws);
       RefineCertificate(ws);
-      *status = InnerStatus::kInfeasible;
-      return EnterResult::kStop;
+      // the entering row was only nearly dependent (its residual against W, pivot in (4), is
+      // above rounding but below the tolerance): the certificate does not close, so the row
+      // enters after all and the iteration goes on to find one that does
+      if (CertificateResidual(*ws) > kCertificateTolerance) {
+        if (ws->nw < ws->n && TryAppend(ws, row, sign, lambda_new, 0.0))
+          return EnterResult::kEntered;
+        // or a rounding-size positive c_p was left out of the ratio test: let it block
+        for (int p = 0; p < ws->nw; ++p) {
+          if (ws->is_eq[ws->w_row[p]] || !(c[p] > 0.0)) continue;
+          const double t = ws->lambda[p] / c[p];
+          if (t < alpha) alpha = t, j = p;
+        }
+      }
+      if (j < 0) {
+        *status = InnerStatus::kInfeasible;
+        return EnterResult::kStop;
+      }
     }
 #ifdef QP_TRACE
     fprintf(stderr, "dependent: remove row %d alpha %.3e\n", ws->w_row[j], alpha);

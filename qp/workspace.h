@@ -71,6 +71,7 @@ struct Workspace {
   std::array<double, kN> mnew{}, kvec{}, tmp{}, tmp2{}, delta_prev{};
   std::array<double, kMaxRows> cert{};  // signed Farkas multipliers over rows
   std::array<std::uint8_t, kMaxRows> skipped{}, dependent_entries{};  // per subproblem
+  std::array<double, kN * kN> square{};  // a full working set's rows, for a direct solve
 };
 
 /// out = A x (m entries, overwritten), four columns of A per pass over out.

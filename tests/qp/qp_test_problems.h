@@ -5,6 +5,8 @@
 
 #include <random>
 
+#include <gtest/gtest.h>
+
 #include "qp/problem.h"
 
 namespace hyq::qp::testing {
@@ -49,5 +51,10 @@ Problem MakeRandomStrictlyConvex(int n, int m, double condition, std::mt19937_64
 /// The next servo cycle's problem: the finite bounds of A's rows and (when move_g) g moved by
 /// `relative` (Gaussian). Keep g for ID-shaped problems: g ∈ range(Zᵀ) is what bounds them.
 void Perturb(double relative, bool move_g, std::mt19937_64* rng, Problem* p);
+
+/// Whether s.y_bounds, s.y_constraints form a Farkas certificate for p: with w = (y_b, y_c),
+/// ‖y_b + Aᵀ y_c‖ ≈ 0 (relative 1e-9), w_i > 0 only on finite upper sides, w_i < 0 only on finite
+/// lower sides, and Σ_{w>0} w·upper + Σ_{w<0} w·lower < 0: then no x satisfies every row.
+::testing::AssertionResult IsFarkasCertificate(const Problem& p, const Solution& s);
 
 }  // namespace hyq::qp::testing
