@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <limits>
+#include <utility>
 #ifdef QP_TRACE
 #include <cstdio>
 #endif
@@ -11,30 +12,23 @@ namespace {
 
 // How often one row may enter dependent on W (and swap with a blocking row) per subproblem.
 constexpr int kMaxDependentEntries = 2;
-
-double Dot(const double* a, const double* b, int n) {
-  double s = 0.0;
-  for (int i = 0; i < n; ++i) s += a[i] * b[i];
-  return s;
-}
+// A Farkas certificate is accepted when ‖Cᵀ w‖ is below this (relative, see CertificateResidual).
+constexpr double kCertificateTolerance = 1e-12;
 
 // z = L⁻¹ z in place, z zero above `first`
 void ForwardChol(const Workspace& ws, double* z, int first) {
   for (int i = first; i < ws.n; ++i) {
     const double* Li = &ws.chol[i * kN];
-    double s = z[i];
-    for (int k = first; k < i; ++k) s -= Li[k] * z[k];
-    z[i] = s / Li[i];
+    z[i] = (z[i] - Dot(Li + first, z + first, i - first)) / Li[i];
   }
 }
 
-// z = L⁻ᵀ z in place (column-oriented so that L is read by rows)
+// z = L⁻ᵀ z in place: z_i = (z_i − Σ_{k>i} L(k, i) z_k) / L(i, i), column i of L contiguous
 void BackwardChol(const Workspace& ws, double* z) {
-  for (int i = ws.n - 1; i >= 0; --i) {
-    const double* Li = &ws.chol[i * kN];
-    z[i] /= Li[i];
-    const double zi = z[i];
-    for (int k = 0; k < i; ++k) z[k] -= Li[k] * zi;
+  const int n = ws.n;
+  for (int i = n - 1; i >= 0; --i) {
+    const double* Ci = &ws.cholt[i * kN];
+    z[i] = (z[i] - Dot(Ci + i + 1, z + i + 1, n - i - 1)) / Ci[i];
   }
 }
 
@@ -116,8 +110,7 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
   double pivot = mm;
   for (int p = 0; p < nw; ++p) {
     const double* Lp = &ws->lw[p * kN];
-    double s = r[p];
-    for (int q = 0; q < p; ++q) s -= Lp[q] * r[q];
+    const double s = r[p] - Dot(Lp, r, p);
     r[p] = s;
     l[p] = s / ws->dw[p];
     pivot -= s * l[p];
@@ -162,9 +155,7 @@ void RefineCertificate(Workspace* ws) {
   double* y = ws->kvec.data();
   for (int q = 0; q < nw; ++q) {
     const double* Lq = &ws->lw[q * kN];
-    double s = -ws->w_sign[q] * Dot(&ws->mw[q * kN], r, n);
-    for (int k = 0; k < q; ++k) s -= Lq[k] * y[k];
-    y[q] = s;
+    y[q] = -ws->w_sign[q] * Dot(&ws->mw[q * kN], r, n) - Dot(Lq, y, q);
   }
   for (int q = 0; q < nw; ++q) y[q] /= ws->dw[q];
   for (int q = nw - 1; q >= 0; --q) {
@@ -177,6 +168,64 @@ void RefineCertificate(Workspace* ws) {
     // an inequality's weight keeps its side's sign (rounding-size entries of the other sign go)
     if (!ws->is_eq[row] && ws->w_sign[q] * ws->cert[row] < 0.0) ws->cert[row] = 0.0;
   }
+}
+
+// With W full (n independent rows) every row is a combination of W's: s C_row = Σ c_p s_p C_p.
+// c from (4) goes through Kw, whose condition is that of C_W squared; when W is nearly
+// dependent that is too inaccurate for a certificate, so solve the square system
+//   [s_p C_pᵀ]_p c = s C_rowᵀ   by Gaussian elimination with partial pivoting, into ws->tmp2.
+void SolveFullWorkingSet(Workspace* ws, int row, int sign) {
+  const Problem& p = *ws->problem;
+  const int n = ws->n;
+  double* B = ws->square.data();  // B(i, q) = B[i + q * kN]
+  double* c = ws->kvec.data();
+  for (int q = 0; q < n; ++q) {
+    const int r = ws->w_row[q];
+    for (int i = 0; i < n; ++i)
+      B[i + q * kN] = ws->w_sign[q] * (r < n ? (i == r ? 1.0 : 0.0) : p.A(r - n, i));
+  }
+  for (int i = 0; i < n; ++i) c[i] = sign * (row < n ? (i == row ? 1.0 : 0.0) : p.A(row - n, i));
+  for (int k = 0; k < n; ++k) {
+    int piv = k;
+    for (int i = k + 1; i < n; ++i)
+      if (std::fabs(B[i + k * kN]) > std::fabs(B[piv + k * kN])) piv = i;
+    if (B[piv + k * kN] == 0.0) return;  // singular after all: keep c from (4)
+    if (piv != k) {
+      for (int q = k; q < n; ++q) std::swap(B[k + q * kN], B[piv + q * kN]);
+      std::swap(c[k], c[piv]);
+    }
+    const double inv = 1.0 / B[k + k * kN];
+    for (int i = k + 1; i < n; ++i) {
+      const double f = B[i + k * kN] * inv;
+      if (f == 0.0) continue;
+      for (int q = k + 1; q < n; ++q) B[i + q * kN] -= f * B[k + q * kN];
+      c[i] -= f * c[k];
+    }
+  }
+  for (int k = n - 1; k >= 0; --k) {
+    double s = c[k];
+    for (int q = k + 1; q < n; ++q) s -= B[k + q * kN] * c[q];
+    c[k] = s / B[k + k * kN];
+  }
+  for (int q = 0; q < n; ++q) ws->tmp2[q] = c[q];
+}
+
+// ‖Cᵀ w‖∞ / (‖w‖∞ · max(1, max |A_ij|)) for the certificate in ws->cert
+double CertificateResidual(const Workspace& ws) {
+  const Problem& p = *ws.problem;
+  const int n = ws.n, m = ws.m;
+  double r[kN];
+  double wmax = 0.0, amax = 1.0;
+  for (int i = 0; i < ws.rows; ++i) wmax = std::fmax(wmax, std::fabs(ws.cert[i]));
+  for (int i = 0; i < n; ++i) r[i] = ws.cert[i];
+  for (int k = 0; k < m; ++k)
+    for (int j = 0; j < n; ++j) {
+      r[j] += p.A(k, j) * ws.cert[n + k];
+      amax = std::fmax(amax, std::fabs(p.A(k, j)));
+    }
+  double rmax = 0.0;
+  for (int i = 0; i < n; ++i) rmax = std::fmax(rmax, std::fabs(r[i]));
+  return rmax / (std::fmax(wmax, 1e-300) * amax);
 }
 
 bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status) {
@@ -209,6 +258,7 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
       ws->skipped[row] = 1;
       return EnterResult::kSkipped;
     }
+    if (ws->nw == ws->n) SolveFullWorkingSet(ws, row, sign);
     const double* c = ws->tmp2.data();
     double cmax = 0.0;
     for (int p = 0; p < ws->nw; ++p) cmax = std::fmax(cmax, std::fabs(c[p]));
@@ -230,8 +280,23 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
       }
       RefineCertificate(ws);
       RefineCertificate(ws);
-      *status = InnerStatus::kInfeasible;
-      return EnterResult::kStop;
+      // the entering row was only nearly dependent (its residual against W, pivot in (4), is
+      // above rounding but below the tolerance): the certificate does not close, so the row
+      // enters after all and the iteration goes on to find one that does
+      if (CertificateResidual(*ws) > kCertificateTolerance) {
+        if (ws->nw < ws->n && TryAppend(ws, row, sign, lambda_new, 0.0))
+          return EnterResult::kEntered;
+        // or a rounding-size positive c_p was left out of the ratio test: let it block
+        for (int p = 0; p < ws->nw; ++p) {
+          if (ws->is_eq[ws->w_row[p]] || !(c[p] > 0.0)) continue;
+          const double t = ws->lambda[p] / c[p];
+          if (t < alpha) alpha = t, j = p;
+        }
+      }
+      if (j < 0) {
+        *status = InnerStatus::kInfeasible;
+        return EnterResult::kStop;
+      }
     }
 #ifdef QP_TRACE
     fprintf(stderr, "dependent: remove row %d alpha %.3e\n", ws->w_row[j], alpha);
@@ -250,12 +315,12 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
 bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   const Problem& p = *ws->problem;
   const int n = ws->n;
+  const double* h = p.H.data();
   for (int i = 0; i < n; ++i) {
     double* Li = &ws->chol[i * kN];
     for (int j = 0; j <= i; ++j) {
       const double* Lj = &ws->chol[j * kN];
-      double s = p.H(i, j);
-      for (int k = 0; k < j; ++k) s -= Li[k] * Lj[k];
+      double s = h[i + j * n] - Dot(Li, Lj, j);
       if (i == j) {
         s += eps;
         if (!(s > relative_floor * (p.H(i, i) + eps)) || !(s > 0.0)) return false;
@@ -265,6 +330,8 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
       }
     }
   }
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k <= i; ++k) ws->cholt[k * kN + i] = ws->chol[i * kN + k];
   return true;
 }
 
@@ -312,14 +379,7 @@ void ComputeStep(Workspace* ws) noexcept {
   const int m = ws->m;
   double* ad = cd + n;
   for (int i = 0; i < m; ++i) ad[i] = 0.0;
-  if (m > 0) {
-    const double* a = ws->problem->A.data();
-    for (int j = 0; j < n; ++j) {
-      const double dj = delta[j];
-      const double* col = a + j * m;
-      for (int i = 0; i < m; ++i) ad[i] += col[i] * dj;
-    }
-  }
+  if (m > 0) MultiplyA(*ws->problem, delta, ad);
 }
 
 double RefineOnWorkingSet(Workspace* ws) noexcept {
@@ -362,9 +422,7 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
   double* dl = ws->mnew.data();
   for (int q = 0; q < nw; ++q) {
     const double* Lq = &ws->lw[q * kN];
-    double s = -dd[q];
-    for (int k = 0; k < q; ++k) s -= Lq[k] * dl[k];
-    dl[q] = s;
+    dl[q] = -dd[q] - Dot(Lq, dl, q);
   }
   for (int q = 0; q < nw; ++q) dl[q] /= ws->dw[q];
   for (int q = nw - 1; q >= 0; --q) {
@@ -401,9 +459,7 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
     double* ls = ws->lambda_star.data();
     for (int p = 0; p < nw; ++p) {
       const double* Lp = &ws->lw[p * kN];
-      double s = -ws->d[p];
-      for (int q = 0; q < p; ++q) s -= Lp[q] * ls[q];
-      ls[p] = s;
+      ls[p] = -ws->d[p] - Dot(Lp, ls, p);
     }
     for (int p = 0; p < nw; ++p) ls[p] /= ws->dw[p];
     for (int p = nw - 1; p >= 0; --p) {
@@ -439,10 +495,10 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
       if (ws->pos_of[i] >= 0 || ws->skipped[i]) continue;
       const double value = ws->cx[i] + ws->cdelta[i];
       if (value > ws->hi[i]) {
-        const double up = (value - ws->hi[i]) / (1.0 + std::fabs(ws->hi[i]));
+        const double up = (value - ws->hi[i]) * ws->hi_scale[i];
         if (up > worst) worst = up, enter = i, enter_sign = 1;
       } else if (value < ws->lo[i]) {
-        const double down = (ws->lo[i] - value) / (1.0 + std::fabs(ws->lo[i]));
+        const double down = (ws->lo[i] - value) * ws->lo_scale[i];
         if (down > worst) worst = down, enter = i, enter_sign = -1;
       }
     }

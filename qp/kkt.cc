@@ -1,6 +1,7 @@
 // KKT residuals of the unregularised problem (definitions in qp/problem.h), plus the small
 // helpers of problem.h.
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "qp/problem.h"
@@ -38,12 +39,20 @@ double KktResiduals::max() const noexcept {
 KktResiduals ComputeKktResiduals(const Problem& p, const VectorN& x, const VectorN& y_bounds,
                                  const VectorM& y_constraints) noexcept {
   const int n = p.n(), m = p.m();
-  double hx_max = 0, g_max = 0, yb_max = 0, aty_max = 0, stat = 0;
-  double x_max = 0, ax_max = 0, y_max = 0;
+  const double* H = p.H.data();
+  const double* A = p.A.data();
+  // A x column by column (contiguous), then everything in one pass per row
+  std::array<double, kMaxConstraints> ax{};
+  for (int j = 0; j < n; ++j) {
+    const double xj = x(j);
+    const double* col = A + j * m;
+    for (int k = 0; k < m; ++k) ax[k] += col[k] * xj;
+  }
+  double hx_max = 0, g_max = 0, yb_max = 0, aty_max = 0, stat = 0, x_max = 0;
   for (int i = 0; i < n; ++i) {
     double hx = 0, aty = 0;
-    for (int j = 0; j < n; ++j) hx += p.H(i, j) * x(j);
-    for (int k = 0; k < m; ++k) aty += p.A(k, i) * y_constraints(k);
+    for (int j = 0; j < n; ++j) hx += H[i + j * n] * x(j);
+    for (int k = 0; k < m; ++k) aty += A[k + i * m] * y_constraints(k);
     hx_max = std::max(hx_max, std::fabs(hx));
     g_max = std::max(g_max, std::fabs(p.g(i)));
     yb_max = std::max(yb_max, std::fabs(y_bounds(i)));
@@ -51,30 +60,24 @@ KktResiduals ComputeKktResiduals(const Problem& p, const VectorN& x, const Vecto
     stat = std::max(stat, std::fabs(hx + p.g(i) + y_bounds(i) + aty));
     x_max = std::max(x_max, std::fabs(x(i)));
   }
-  y_max = yb_max;
+  double y_max = yb_max, ax_max = 0;
   for (int k = 0; k < m; ++k) {
     y_max = std::max(y_max, std::fabs(y_constraints(k)));
-    double ax = 0;
-    for (int j = 0; j < n; ++j) ax += p.A(k, j) * x(j);
-    ax_max = std::max(ax_max, std::fabs(ax));
+    ax_max = std::max(ax_max, std::fabs(ax[k]));
   }
   double primal = 0, dual = 0, compl_ = 0;
   auto row = [&](double value, double lo, double hi, double y) {
     primal = std::max({primal, value - hi, lo - value});
     if (y > 0) {
-      if (std::isfinite(hi)) compl_ = std::max(compl_, y * std::fabs(hi - value));
+      if (hi < kInf) compl_ = std::max(compl_, y * std::fabs(hi - value));
       else dual = std::max(dual, y);
     } else if (y < 0) {
-      if (std::isfinite(lo)) compl_ = std::max(compl_, -y * std::fabs(value - lo));
+      if (lo > -kInf) compl_ = std::max(compl_, -y * std::fabs(value - lo));
       else dual = std::max(dual, -y);
     }
   };
   for (int i = 0; i < n; ++i) row(x(i), p.lb(i), p.ub(i), y_bounds(i));
-  for (int k = 0; k < m; ++k) {
-    double ax = 0;
-    for (int j = 0; j < n; ++j) ax += p.A(k, j) * x(j);
-    row(ax, p.lbA(k), p.ubA(k), y_constraints(k));
-  }
+  for (int k = 0; k < m; ++k) row(ax[k], p.lbA(k), p.ubA(k), y_constraints(k));
   const double value_scale = std::max({1.0, x_max, ax_max});
   KktResiduals r;
   r.stationarity = stat / std::max({1.0, hx_max, g_max, yb_max, aty_max});

@@ -84,7 +84,7 @@ struct Budget {
 struct Settings {
   double kkt_tolerance = 1e-10;        ///< relative, on every residual of KktResiduals
   double primal_tolerance = 1e-11;     ///< a row is violated above (1 + |bound|) * this
-  double dependence_tolerance = 1e-11; ///< relative pivot below which an entering row is dependent
+  double dependence_tolerance = 1e-13; ///< relative pivot below which an entering row is dependent
   /// Proximal weight for a singular H, relative to max H_ii (absolute for an LP, H = 0).
   double proximal_weight = 1e-7;
   int max_outer_iterations = 400;

@@ -33,23 +33,16 @@ double MaxAbs(const double* a, int n) {
 // cx = C x_k, q = H x_k + g, v = L⁻¹ q
 void Linearise(Workspace* ws) {
   const Problem& p = *ws->problem;
-  const int n = ws->n, m = ws->m;
+  const int n = ws->n;
   for (int i = 0; i < n; ++i) {
     ws->cx[i] = ws->xk[i];
     ws->q[i] = p.g(i);
   }
-  for (int i = 0; i < m; ++i) ws->cx[n + i] = 0.0;
-  for (int j = 0; j < n; ++j) {
-    const double xj = ws->xk[j];
-    if (xj == 0.0) continue;
-    for (int i = 0; i < n; ++i) ws->q[i] += p.H(i, j) * xj;
-    for (int i = 0; i < m; ++i) ws->cx[n + i] += p.A(i, j) * xj;
-  }
+  internal::MultiplyA(p, ws->xk.data(), ws->cx.data() + n);
+  for (int i = 0; i < n; ++i) ws->q[i] += internal::Dot(p.H.data() + i * n, ws->xk.data(), n);
   for (int i = 0; i < n; ++i) {
     const double* Li = &ws->chol[i * kN];
-    double s = ws->q[i];
-    for (int k = 0; k < i; ++k) s -= Li[k] * ws->v[k];
-    ws->v[i] = s / Li[i];
+    ws->v[i] = (ws->q[i] - internal::Dot(Li, ws->v.data(), i)) / Li[i];
   }
 }
 
@@ -83,8 +76,7 @@ double Objective(const Problem& p, const VectorN& x) {
   const int n = p.n();
   double f = 0.0;
   for (int i = 0; i < n; ++i) {
-    double hx = 0.0;
-    for (int j = 0; j < n; ++j) hx += p.H(i, j) * x(j);
+    const double hx = internal::Dot(p.H.data() + i * n, x.data(), n);  // H symmetric
     f += x(i) * (0.5 * hx + p.g(i));
   }
   return f;
@@ -137,23 +129,26 @@ bool IsWellFormed(const Problem& p) noexcept {
   if (n < 1 || p.H.cols() != n || p.g.size() != n || p.lb.size() != n || p.ub.size() != n)
     return false;
   if ((m > 0 && p.A.cols() != n) || p.lbA.size() != m || p.ubA.size() != m) return false;
-  double hmax = 0.0;
+  // 0 · v is NaN exactly when v is NaN or ±Inf: one vectorisable pass per array
+  auto finite = [](const double* v, Eigen::Index size) {
+    double z = 0.0;
+    for (Eigen::Index i = 0; i < size; ++i) z += 0.0 * v[i];
+    return z == 0.0;
+  };
+  if (!finite(p.H.data(), n * n) || !finite(p.g.data(), n) || !finite(p.A.data(), m * n))
+    return false;
+  double hmax = 0.0, asym = 0.0;
   for (Eigen::Index j = 0; j < n; ++j)
-    for (Eigen::Index i = 0; i < n; ++i) {
-      if (!std::isfinite(p.H(i, j))) return false;
+    for (Eigen::Index i = j; i < n; ++i) {
       hmax = std::max(hmax, std::fabs(p.H(i, j)));
+      asym = std::max(asym, std::fabs(p.H(i, j) - p.H(j, i)));
     }
-  for (Eigen::Index j = 0; j < n; ++j)
-    for (Eigen::Index i = j + 1; i < n; ++i)
-      if (std::fabs(p.H(i, j) - p.H(j, i)) > 1e-10 * hmax) return false;
+  if (asym > 1e-10 * hmax) return false;
   for (Eigen::Index i = 0; i < n; ++i) {
-    if (!std::isfinite(p.g(i))) return false;
     if (std::isnan(p.lb(i)) || std::isnan(p.ub(i)) || p.lb(i) > p.ub(i)) return false;
     if (p.lb(i) == kInf || p.ub(i) == -kInf) return false;
   }
   for (Eigen::Index k = 0; k < m; ++k) {
-    for (Eigen::Index j = 0; j < n; ++j)
-      if (!std::isfinite(p.A(k, j))) return false;
     if (std::isnan(p.lbA(k)) || std::isnan(p.ubA(k)) || p.lbA(k) > p.ubA(k)) return false;
     if (p.lbA(k) == kInf || p.ubA(k) == -kInf) return false;
   }
@@ -222,6 +217,8 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
   for (int i = 0; i < ws.rows; ++i) {
     ws.is_eq[i] = ws.lo[i] == ws.hi[i];
     ws.pos_of[i] = -1;
+    ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(ws.lo[i]));
+    ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(ws.hi[i]));
   }
   for (int i = 0; i < n; ++i) ws.hmax = std::max(ws.hmax, p.H(i, i));
   // proximal centre: the previous answer, or 0, clipped into the bounds

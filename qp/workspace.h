@@ -14,6 +14,21 @@ namespace hyq::qp::internal {
 
 inline constexpr int kN = kMaxVariables;
 
+/// aᵀb with four independent partial sums: a single running sum is a chain of dependent
+/// additions (latency-bound, and the compiler may not reorder it), four chains run in parallel.
+inline double Dot(const double* a, const double* b, int n) noexcept {
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    s0 += a[i] * b[i];
+    s1 += a[i + 1] * b[i + 1];
+    s2 += a[i + 2] * b[i + 2];
+    s3 += a[i + 3] * b[i + 3];
+  }
+  for (; i < n; ++i) s0 += a[i] * b[i];
+  return (s0 + s1) + (s2 + s3);
+}
+
 struct Workspace {
   const Problem* problem = nullptr;
   int n = 0, m = 0, rows = 0;
@@ -26,6 +41,10 @@ struct Workspace {
 
   // H + eps I = L Lᵀ, L lower triangular, stored row-major: L(i, k) = chol[i * kN + k]
   std::array<double, kN * kN> chol{};
+  // the same L column by column, cholt[k * kN + i] = L(i, k), for the Lᵀ solves in dot form
+  std::array<double, kN * kN> cholt{};
+  // 1 / (1 + |bound|) per row and side, to rank violations without dividing
+  std::array<double, kMaxRows> lo_scale{}, hi_scale{};
 
   // proximal centre x_k, its row values C x_k, gradient q = H x_k + g, v = L⁻¹ q
   std::array<double, kN> xk{}, q{}, v{};
@@ -52,6 +71,27 @@ struct Workspace {
   std::array<double, kN> mnew{}, kvec{}, tmp{}, tmp2{}, delta_prev{};
   std::array<double, kMaxRows> cert{};  // signed Farkas multipliers over rows
   std::array<std::uint8_t, kMaxRows> skipped{}, dependent_entries{};  // per subproblem
+  std::array<double, kN * kN> square{};  // a full working set's rows, for a direct solve
 };
+
+/// out = A x (m entries, overwritten), four columns of A per pass over out.
+inline void MultiplyA(const Problem& p, const double* x, double* out) noexcept {
+  const int n = p.n(), m = p.m();
+  const double* a = p.A.data();
+  for (int i = 0; i < m; ++i) out[i] = 0.0;
+  int j = 0;
+  for (; j + 4 <= n; j += 4) {
+    const double* c0 = a + j * m;
+    const double* c1 = c0 + m;
+    const double* c2 = c1 + m;
+    const double* c3 = c2 + m;
+    const double x0 = x[j], x1 = x[j + 1], x2 = x[j + 2], x3 = x[j + 3];
+    for (int i = 0; i < m; ++i) out[i] += (c0[i] * x0 + c1[i] * x1) + (c2[i] * x2 + c3[i] * x3);
+  }
+  for (; j < n; ++j) {
+    const double* c = a + j * m;
+    for (int i = 0; i < m; ++i) out[i] += c[i] * x[j];
+  }
+}
 
 }  // namespace hyq::qp::internal

@@ -145,12 +145,62 @@ Problem MakeRandomStrictlyConvex(int n, int m, double condition, std::mt19937_64
   p.A = Gaussian(m, n, rng);
   const Eigen::VectorXd x0 = 0.5 * Gaussian(n, 1, rng);
   const Eigen::VectorXd ax = p.A * x0;
-  for (int k = 0; k < m; ++k) {
-    p.ubA(k) = ax(k) + Uniform(0.0, 1.0, rng);
-    p.lbA(k) = ax(k) - Uniform(0.0, 1.0, rng);
-  }
+  for (int k = 0; k < m; ++k) p.ubA(k) = ax(k) + Uniform(0.0, 1.0, rng);
   p.g *= 5.0;
   return p;
+}
+
+void Perturb(double relative, bool move_g, std::mt19937_64* rng, Problem* p) {
+  std::normal_distribution<double> N(0.0, relative);
+  const double gs = std::max(1.0, p->g.cwiseAbs().maxCoeff());
+  for (int i = 0; move_g && i < p->n(); ++i) p->g(i) += gs * N(*rng);
+  for (int k = 0; k < p->m(); ++k) {
+    const double shift = N(*rng);
+    if (std::isfinite(p->lbA(k))) p->lbA(k) += shift;
+    if (std::isfinite(p->ubA(k))) p->ubA(k) += shift;
+  }
+}
+
+::testing::AssertionResult IsFarkasCertificate(const Problem& p, const Solution& s) {
+  const int n = p.n(), m = p.m();
+  Eigen::VectorXd r = s.y_constraints.size() > 0 && m > 0
+                          ? Eigen::VectorXd(p.A.transpose() * s.y_constraints)
+                          : Eigen::VectorXd::Zero(n);
+  double wmax = s.y_bounds.cwiseAbs().maxCoeff();
+  if (m > 0) wmax = std::max(wmax, s.y_constraints.cwiseAbs().maxCoeff());
+  if (!(wmax > 0.0)) return ::testing::AssertionFailure() << "certificate is zero";
+  // every x satisfying the rows has  rᵀx = w_cᵀ A x ≤ β_c  and  w_bᵀ x ≤ β_b
+  double beta = 0.0, scale = 0.0;
+  for (int i = 0; i < n + m; ++i) {
+    const double w = i < n ? s.y_bounds(i) : s.y_constraints(i - n);
+    const double lo = i < n ? p.lb(i) : p.lbA(i - n);
+    const double hi = i < n ? p.ub(i) : p.ubA(i - n);
+    if (w == 0.0) continue;
+    const double b = w > 0 ? hi : lo;
+    if (!std::isfinite(b))
+      return ::testing::AssertionFailure() << "weight " << w << " on an infinite side, row " << i;
+    beta += w * b;
+    scale = std::max(scale, std::fabs(w * b));
+  }
+  // so (r + w_b)ᵀ x ≤ β with β = β_b + β_c; r + w_b = 0 gives 0 ≤ β, a contradiction when β < 0.
+  // A rounding-size residual e = r + w_b is allowed where the bounds are finite: then
+  // eᵀx ≥ Σ min(e_i lb_i, e_i ub_i) =: low, and low > β is the contradiction.
+  const double amax = m > 0 ? std::max(1.0, p.A.cwiseAbs().maxCoeff()) : 1.0;
+  double low = 0.0, emax = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double e = r(i) + s.y_bounds(i);
+    emax = std::max(emax, std::fabs(e));
+    if (std::fabs(e) <= 1e-13 * wmax * amax) continue;
+    const double b = e > 0 ? p.lb(i) : p.ub(i);
+    if (!std::isfinite(b))
+      return ::testing::AssertionFailure() << "residual " << e << " on an unbounded variable " << i;
+    low += e * b;
+  }
+  if (!(beta - low < -1e-9 * std::max(1.0, scale)))
+    return ::testing::AssertionFailure() << "no contradiction: beta " << beta << ", low " << low;
+  if (!(emax <= 1e-6 * wmax * amax))
+    return ::testing::AssertionFailure() << "|y_b + A' y_c| = " << emax;
+  return ::testing::AssertionSuccess() << "residual " << emax / (wmax * amax);
 }
 
 }  // namespace hyq::qp::testing

@@ -5,6 +5,8 @@
 
 #include <random>
 
+#include <gtest/gtest.h>
+
 #include "qp/problem.h"
 
 namespace hyq::qp::testing {
@@ -41,8 +43,18 @@ MatrixH RandomHessian(int n, double condition, int rank, std::mt19937_64* rng);
 /// row μ c_N − Σ c_D ≥ 0 per foot and 6 rows N v* ≥ 0 (non-penetration, v* = Z z + p).
 Problem MakeIdShaped(int feet, std::mt19937_64* rng);
 
-/// Random strictly convex problem: n variables, m two-sided inequalities A x ≤ b (A random,
-/// feasible at a random point), H with the given condition number.
+/// Random strictly convex problem: n variables, m one-sided inequalities A x ≤ b (A random,
+/// feasible at a random point, about a third active at the optimum), H with the given condition
+/// number.
 Problem MakeRandomStrictlyConvex(int n, int m, double condition, std::mt19937_64* rng);
+
+/// The next servo cycle's problem: the finite bounds of A's rows and (when move_g) g moved by
+/// `relative` (Gaussian). Keep g for ID-shaped problems: g ∈ range(Zᵀ) is what bounds them.
+void Perturb(double relative, bool move_g, std::mt19937_64* rng, Problem* p);
+
+/// Whether s.y_bounds, s.y_constraints form a Farkas certificate for p: with w = (y_b, y_c),
+/// ‖y_b + Aᵀ y_c‖ ≈ 0 (relative 1e-9), w_i > 0 only on finite upper sides, w_i < 0 only on finite
+/// lower sides, and Σ_{w>0} w·upper + Σ_{w<0} w·lower < 0: then no x satisfies every row.
+::testing::AssertionResult IsFarkasCertificate(const Problem& p, const Solution& s);
 
 }  // namespace hyq::qp::testing
