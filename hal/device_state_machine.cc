@@ -37,7 +37,8 @@ DeviceState InitFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineContex
   if (e.kind == DeviceEventKind::kBootUp) return DeviceState::kPreOp;
   if (e.kind == DeviceEventKind::kHeartbeat) {
     if (e.nmt == NmtState::kPreOperational) return DeviceState::kPreOp;
-    SendNmt(d, NmtCommand::kEnterPreOperational, ctx);  // configure from PRE-OP only
+    // configured by someone else (or by us before a fault): start over from a reset
+    SendNmt(d, NmtCommand::kResetCommunication, ctx);
   }
   return DeviceState::kInit;
 }
@@ -96,6 +97,7 @@ DeviceState PreOpTimeout(DeviceRuntime& d, StateMachineContext&) noexcept {
 // error is latched and the inputs have been valid for min_valid_cycles_for_op cycles.
 DeviceState SafeOpEnter(DeviceRuntime& d, StateMachineContext&) noexcept {
   d.enable_requested = false;
+  d.consecutive_missed = 0;  // SAFE-OP gets its own max_missed_cycles window
   return DeviceState::kSafeOp;
 }
 DeviceState SafeOpFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineContext&) noexcept {
@@ -122,7 +124,8 @@ DeviceState SafeOpCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
   if (HeartbeatLost(d, ctx)) return Fault(d, DeviceError::kHeartbeatLost, DeviceState::kInit);
   if (d.consecutive_missed > ctx.timing->max_missed_cycles)
     return Fault(d, DeviceError::kInputsLost, DeviceState::kPreOp);
-  if (d.consecutive_valid > 0 && (d.last_status & status_bit::kFault) != 0 && !d.error_latched)
+  if (d.fault_reset_grace > 0) --d.fault_reset_grace;  // the reset is on its way to the device
+  else if (d.consecutive_valid > 0 && (d.last_status & status_bit::kFault) != 0 && !d.error_latched)
     Fault(d, DeviceError::kDeviceFault, DeviceState::kSafeOp);
   if (d.target == DeviceState::kOp && !d.error_latched &&
       d.consecutive_valid >= ctx.timing->min_valid_cycles_for_op) {
@@ -261,7 +264,10 @@ void DispatchCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
 void RequestState(DeviceRuntime& d, DeviceState target) noexcept { d.target = target; }
 
 void AcknowledgeFault(DeviceRuntime& d) noexcept {
-  if (d.error_latched) d.fault_reset_pending = true;
+  if (d.error_latched) {
+    d.fault_reset_pending = true;
+    d.fault_reset_grace = 2;
+  }
   d.error_latched = false;
   d.consecutive_valid = 0;
 }

@@ -79,6 +79,7 @@ struct DeviceRuntime {
   DeviceError error = DeviceError::kNone;  // the last error (kept for the report)
   bool error_latched = false;              // blocks SAFE-OP -> OP until acknowledged
   bool fault_reset_pending = false;        // send control_bit::kFaultReset once
+  std::uint8_t fault_reset_grace = 0;      // cycles the status fault bit is ignored after it
   std::int64_t state_entered_ns = 0;
   std::int64_t last_heartbeat_ns = -1;     // -1: none since the last NMT reset
   NmtState last_nmt = NmtState::kBootUp;
@@ -149,7 +150,8 @@ void DispatchEvent(DeviceRuntime& d, const DeviceEvent& e, StateMachineContext& 
 void DispatchCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept;
 /// Sets the target; going down happens at the next DispatchCycle.
 void RequestState(DeviceRuntime& d, DeviceState target) noexcept;
-/// Clears a latched error (the next RPDO carries control_bit::kFaultReset).
+/// Clears a latched error (the next RPDO carries control_bit::kFaultReset; the status word's
+/// fault bit is ignored for the two cycles the reset needs to reach the device and come back).
 void AcknowledgeFault(DeviceRuntime& d) noexcept;
 
 }  // namespace hyq::hal
