@@ -20,6 +20,12 @@ std::string Percent(double x) {
   return buf;
 }
 
+std::string Micros(double seconds) {
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f us", 1e6 * seconds);
+  return buf;
+}
+
 void Add(BusLoadReport* r, const BusConfig& bus, std::string what, std::uint32_t bytes) {
   LoadItem item;
   item.what = std::move(what);
@@ -91,10 +97,9 @@ std::vector<BusLoadReport> CheckBusLoad(const HalConfig& config) {
       if (bus.fd) rates += " / " + std::to_string(bus.data_bitrate / 1000) + " kbit/s data (FD)";
       else rates += " (classic)";
       throw ConfigError("bus '" + bus.name + "': worst-case load " + Percent(r.load) + " (" +
-                        std::to_string(r.items.size()) + " frames, " +
-                        std::to_string(r.busy_time_s * 1e6) + " us per " +
-                        std::to_string(config.timing.cycle_period_s * 1e6) + " us cycle at " +
-                        rates + ") exceeds the limit " + Percent(config.max_bus_load));
+                        std::to_string(r.items.size()) + " frames, " + Micros(r.busy_time_s) +
+                        " per " + Micros(config.timing.cycle_period_s) + " cycle at " + rates +
+                        ") exceeds the limit " + Percent(config.max_bus_load));
     }
     reports.push_back(std::move(r));
   }
