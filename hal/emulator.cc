@@ -295,6 +295,18 @@ void Emulator::SetJointState(int joint, double position_rad, double velocity_rad
   d.effort_counts = TorqueToEffortCounts(c, torque_Nm, position_rad);
 }
 
+void Emulator::SetJointSensor(int joint, double position_rad, double velocity_rad_s,
+                              double sensor_value) noexcept {
+  if (joint < 0 || joint >= kNumJoints) return;
+  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
+  if (index < 0) return;
+  Device& d = devices_[static_cast<std::size_t>(index)];
+  const JointCalibration& c = config_.joints[static_cast<std::size_t>(joint)];
+  d.position_counts = RadToEncoderCounts(c, position_rad);
+  d.velocity_counts_s = RadPerSecToEncoderRate(c, velocity_rad_s);
+  d.effort_counts = SensorValueToEffortCounts(c, sensor_value);
+}
+
 void Emulator::SetImu(const std::array<double, 3>& gyro_rad_s,
                       const std::array<double, 3>& accel_m_s2) noexcept {
   if (imu_device_ < 0) return;

@@ -66,6 +66,10 @@ class Emulator {
   /// matching cylinder force / torque-sensor counts through the inverse calibration).
   void SetJointState(int joint, double position_rad, double velocity_rad_s,
                      double torque_Nm) noexcept;
+  /// The same with the sensor's own quantity: the cylinder force in N (HFE/KFE, + = pushing) or
+  /// the HAA torque in N·m, for plants that model the actuators.
+  void SetJointSensor(int joint, double position_rad, double velocity_rad_s,
+                      double sensor_value) noexcept;
   void SetImu(const std::array<double, 3>& gyro_rad_s,
               const std::array<double, 3>& accel_m_s2) noexcept;
   /// The torque set-point the board applies now (0 when its outputs are disabled).

@@ -63,6 +63,21 @@ TEST(HalCycle, BringUpToOpAndInputsMatchThePlant) {
   }
 }
 
+TEST(HalCycle, CylinderForceBecomesJointTorqueThroughTheLeverArm) {
+  HalRig rig;
+  rig.BringUp();
+  const double q = 0.4, force_N = 2500.0;
+  rig.emu->SetJointSensor(1, q, 0.0, force_N);     // lf_hfe: cylinder
+  rig.emu->SetJointSensor(0, -0.1, 0.0, 42.0);     // lf_haa: rotary, N·m
+  rig.Steps(2);
+  const JointInput& hfe = rig.hal->image().joints[1];
+  const double r = LeverArm(rig.config.joints[1].cylinder, hfe.position_rad);
+  EXPECT_GT(r, 0.02);
+  EXPECT_NEAR(hfe.sensor_value, force_N, 1e-3);
+  EXPECT_NEAR(hfe.torque_Nm, force_N * r, 1e-3);
+  EXPECT_NEAR(rig.hal->image().joints[0].torque_Nm, 42.0, 1e-4);
+}
+
 TEST(HalCycle, TorqueSetPointsReachTheBoardsClampedAndSanitised) {
   HalRig rig;
   rig.BringUp();
