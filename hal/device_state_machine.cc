@@ -3,9 +3,14 @@
 namespace hyq::hal {
 namespace {
 
+void SetError(DeviceRuntime& d, DeviceError e) noexcept {
+  d.error = e;
+  if (d.first_error == DeviceError::kNone) d.first_error = e;
+}
+
 // a fault found while configured: remember it, count it and latch it (blocks SAFE-OP -> OP)
 DeviceState Fault(DeviceRuntime& d, DeviceError e, DeviceState next) noexcept {
-  d.error = e;
+  SetError(d, e);
   d.error_latched = true;
   ++d.counters.faults;
   return next;
@@ -50,7 +55,7 @@ DeviceState InitCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
   return DeviceState::kInit;
 }
 DeviceState InitTimeout(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
-  d.error = DeviceError::kNoBootUp;
+  SetError(d, DeviceError::kNoBootUp);
   ++d.counters.retries;
   SendNmt(d, NmtCommand::kResetCommunication, ctx);
   return DeviceState::kInit;
@@ -77,7 +82,7 @@ DeviceState PreOpFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineConte
 DeviceState PreOpCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
   if (d.target < DeviceState::kPreOp) return d.target;
   if (HeartbeatLost(d, ctx)) {
-    d.error = DeviceError::kHeartbeatLost;
+    SetError(d, DeviceError::kHeartbeatLost);
     ++d.counters.faults;
     return DeviceState::kInit;
   }
@@ -88,7 +93,7 @@ DeviceState PreOpCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
   return DeviceState::kPreOp;
 }
 DeviceState PreOpTimeout(DeviceRuntime& d, StateMachineContext&) noexcept {
-  d.error = DeviceError::kNoInputs;
+  SetError(d, DeviceError::kNoInputs);
   ++d.counters.faults;
   return DeviceState::kInit;
 }
@@ -269,6 +274,7 @@ void AcknowledgeFault(DeviceRuntime& d) noexcept {
     d.fault_reset_grace = 2;
   }
   d.error_latched = false;
+  d.first_error = DeviceError::kNone;
   d.consecutive_valid = 0;
 }
 

@@ -77,6 +77,7 @@ struct DeviceRuntime {
   DeviceState state = DeviceState::kInit;
   DeviceState target = DeviceState::kInit;
   DeviceError error = DeviceError::kNone;  // the last error (kept for the report)
+  DeviceError first_error = DeviceError::kNone;  // the first since start / acknowledgement
   bool error_latched = false;              // blocks SAFE-OP -> OP until acknowledged
   bool fault_reset_pending = false;        // send control_bit::kFaultReset once
   std::uint8_t fault_reset_grace = 0;      // cycles the status fault bit is ignored after it

@@ -405,18 +405,21 @@ std::string Hal::BringUpReport(std::int64_t now_ns) const {
       if (d.state == target_) continue;
       ++not_up;
       const DeviceConfig& c = b->config().devices[static_cast<std::size_t>(d.config_index)];
-      char line[320];
+      char line[400];
       char hb[48];
-      if (d.last_heartbeat_ns < 0) std::snprintf(hb, sizeof hb, "no heartbeat");
+      char first[80] = "";
+      if (d.first_error != DeviceError::kNone && d.first_error != d.error)
+        std::snprintf(first, sizeof first, " (first: %s)", ToString(d.first_error));
+      if (d.last_heartbeat_ns < 0) std::snprintf(hb, sizeof hb, "no heartbeat since the reset");
       else std::snprintf(hb, sizeof hb, "last heartbeat %.0f ms ago",
                          1e-6 * static_cast<double>(now_ns - d.last_heartbeat_ns));
       std::snprintf(line, sizeof line,
-                    "\n  bus '%s' (%s) node %u '%s'%s%s: in %s, wanted %s; last error: %s; %s; "
+                    "\n  bus '%s' (%s) node %u '%s'%s%s: in %s, wanted %s; last error: %s%s; %s; "
                     "%llu valid / %llu missing / %llu malformed frames",
                     b->config().name.c_str(), b->config().interface.c_str(),
                     static_cast<unsigned>(d.node), c.name.c_str(), d.joint >= 0 ? " joint " : "",
                     d.joint >= 0 ? std::string(JointName(d.joint)).c_str() : "",
-                    ToString(d.state), ToString(target_), ToString(d.error), hb,
+                    ToString(d.state), ToString(target_), ToString(d.error), first, hb,
                     static_cast<unsigned long long>(d.counters.valid),
                     static_cast<unsigned long long>(d.counters.missing),
                     static_cast<unsigned long long>(d.counters.malformed));

@@ -239,6 +239,8 @@ TEST(HalCycle, EmulatorBusOffLosesTheLegAndTheReportSaysWho) {
   EXPECT_NE(report.find("3 of 13 devices not in OP"), std::string::npos) << report;
   EXPECT_NE(report.find("bus 'lh' (can2) node 1 'lh_haa' joint lh_haa_joint: in INIT"),
             std::string::npos) << report;
+  EXPECT_NE(report.find("last error: heartbeat lost (first: inputs lost (working counter))"),
+            std::string::npos) << report;
   EXPECT_TRUE(rig.hal->bus(0).AllIn(DeviceState::kOp));
   // recovery: the boards answer the HAL's reset and come back up, the error stays latched
   rig.emu->SetBusOff(2, false);
