@@ -233,7 +233,10 @@ HalStatus Bus::Read(std::int64_t now_ns, std::uint64_t cycle, ProcessImage* imag
 
   // working counter: every device that was in SAFE-OP/OP when the SYNC went out answers once
   wkc_ = {};
+  const bool sync_answered = sync_since_read_;
+  sync_since_read_ = false;
   for (DeviceRuntime& d : devices_) {
+    if (!sync_answered) d.expect_inputs = false;
     if (d.expect_inputs) {
       ++wkc_.expected;
       wkc_.received += d.rx_count;
@@ -304,6 +307,7 @@ HalStatus Bus::Write(std::int64_t now_ns, const ProcessImage& image) noexcept {
   }
   tx_.Push(EncodeSync(next_sync));
   sync_counter_ = next_sync;
+  sync_since_read_ = true;
   for (DeviceRuntime& d : devices_) d.expect_inputs = d.state >= DeviceState::kSafeOp;
 
   if (tx_.overflow != 0) {

@@ -9,12 +9,16 @@
 //   Write(now): encode outputs (RPDO per actuator: set-point in OP, 0 N·m disabled in SAFE-OP) ->
 //               queued NMT commands, RPDOs, then SYNC -> one batch Send per bus.
 // Read and Write are noexcept, never allocate, never block, return a HalStatus and count faults.
+// A Read without a Write since the previous Read expects nothing (no SYNC was sent).
+// Not thread-safe: call everything (including RequestState / AcknowledgeFaults) from the thread
+// that runs the cycle.
 // Construction validates the configuration (including the bus load) and throws ConfigError.
 #pragma once
 
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <span>
 #include <string>
@@ -47,11 +51,14 @@ enum class InputStatus : std::uint8_t {
 };
 const char* ToString(InputStatus s) noexcept;
 
+/// Values are NaN until the first valid frame, so that a consumer ignoring `status` cannot mistake
+/// "never received" for a reading.
 struct JointInput {
-  double position_rad = 0.0;
-  double velocity_rad_s = 0.0;
-  double torque_Nm = 0.0;          // from the load cell through r(q) (HFE/KFE) or torque sensor
-  double sensor_value = 0.0;       // cylinder force in N (HFE/KFE) or HAA torque in N·m
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  double position_rad = kNaN;
+  double velocity_rad_s = kNaN;
+  double torque_Nm = kNaN;         // from the load cell through r(q) (HFE/KFE) or torque sensor
+  double sensor_value = kNaN;      // cylinder force in N (HFE/KFE) or HAA torque in N·m
   std::int32_t position_counts = 0;
   std::int32_t velocity_counts_s = 0;
   std::int32_t effort_counts = 0;
@@ -63,8 +70,9 @@ struct JointInput {
 };
 
 struct ImuInput {
-  std::array<double, 3> gyro_rad_s{};   // IMU frame
-  std::array<double, 3> accel_m_s2{};   // specific force, IMU frame
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::array<double, 3> gyro_rad_s{kNaN, kNaN, kNaN};   // IMU frame
+  std::array<double, 3> accel_m_s2{kNaN, kNaN, kNaN};   // specific force, IMU frame
   std::uint16_t status_word = 0;
   InputStatus status = InputStatus::kNotOperational;
   std::uint32_t age_cycles = 0;
@@ -158,6 +166,7 @@ class Bus {
   std::uint8_t sync_counter_ = 0;  // of the last SYNC sent; 0 = none yet
   std::uint64_t cycle_ = 0;
   bool saw_bus_off_ = false;
+  bool sync_since_read_ = false;   // a SYNC went out since the last Read: inputs are expected
   WorkingCounter wkc_;
   BusCounters counters_;
 };

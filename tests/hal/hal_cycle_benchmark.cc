@@ -31,7 +31,7 @@ void BM_HalCycle(benchmark::State& state) {
   SetPlant(*rig.emu, 0);
   rig.BringUp();
   std::vector<double> ns;
-  ns.reserve(1 << 22);
+  ns.reserve(1 << 20);
   int i = 0;
   std::uint64_t wkc_faults = 0;
   for (auto _ : state) {

@@ -251,6 +251,18 @@ TEST(HalCycle, EmulatorBusOffLosesTheLegAndTheReportSaysWho) {
   EXPECT_TRUE(rig.hal->AllIn(DeviceState::kOp));
 }
 
+TEST(HalCycle, InputsAreNanUntilTheFirstFrameAndAReadWithoutWriteExpectsNothing) {
+  HalRig rig;
+  EXPECT_TRUE(std::isnan(rig.hal->image().joints[0].position_rad));
+  EXPECT_TRUE(std::isnan(rig.hal->image().imu.gyro_rad_s[0]));
+  rig.BringUp();
+  EXPECT_EQ(rig.hal->Read(rig.now_ns), HalStatus::kOk);
+  EXPECT_EQ(rig.hal->image().wkc.expected, 13u);
+  EXPECT_EQ(rig.hal->Read(rig.now_ns), HalStatus::kOk) << "no SYNC went out: nothing is missing";
+  EXPECT_EQ(rig.hal->image().wkc.expected, 0u);
+  EXPECT_EQ(rig.hal->bus(0).counters().missing, 0u);
+}
+
 TEST(HalCycle, ChannelBusOffIsReported) {
   HalRig rig;
   rig.BringUp();
