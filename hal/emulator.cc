@@ -24,6 +24,7 @@ Emulator::Emulator(const HalConfig& config, std::span<CanChannel* const> channel
     : config_(config),
       heartbeat_period_ns_(static_cast<std::int64_t>(config.timing.heartbeat_period_s * 1e9)),
       rng_(seed == 0 ? 0x9E3779B97F4A7C15ull : seed) {
+  ValidateHalConfig(config_);
   if (channels.size() != config_.buses.size())
     throw ConfigError("emulator: " + std::to_string(config_.buses.size()) +
                       " buses configured but " + std::to_string(channels.size()) +

@@ -54,7 +54,7 @@ class Emulator {
   static constexpr std::uint32_t kRpdoWatchdogSyncs = 3;
 
   /// channels[i] carries config.buses[i] (the device side); not owned, must outlive the Emulator.
-  /// Throws ConfigError when the sizes differ.
+  /// Throws ConfigError when the sizes differ or the configuration is invalid (ValidateHalConfig).
   Emulator(const HalConfig& config, std::span<CanChannel* const> channels,
            std::uint64_t seed = 1);
 
