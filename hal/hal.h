@@ -1,0 +1,218 @@
+// The hardware abstraction: one Bus context per CAN bus (no globals) and the Hal that owns the
+// process image of all of them (docs/hal.md).
+//
+// One cycle, SYNC-driven (CANopen synchronous PDOs):
+//   Read(now):  drain RX -> decode heartbeats, EMCYs, TPDOs -> working-counter check (a TPDO must
+//               answer the SYNC sent by the previous Write: expected vs received per device and in
+//               total) -> state machines -> process image inputs, calibrated, flagged per joint.
+//   ...         the controller reads image().joints / imu and writes image().commands
+//   Write(now): encode outputs (RPDO per actuator: set-point in OP, 0 N·m disabled in SAFE-OP) ->
+//               queued NMT commands, RPDOs, then SYNC -> one batch Send per bus.
+// Read and Write are noexcept, never allocate, never block, return a HalStatus and count faults.
+// A Read without a Write since the previous Read expects nothing (no SYNC was sent).
+// Not thread-safe: call everything (including RequestState / AcknowledgeFaults) from the thread
+// that runs the cycle.
+// Construction validates the configuration (including the bus load) and throws ConfigError.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "hal/can_channel.h"
+#include "hal/config_error.h"
+#include "hal/device_state_machine.h"
+#include "hal/hal_config.h"
+#include "hal/protocol.h"
+
+namespace hyq::hal {
+
+enum class [[nodiscard]] HalStatus : std::uint8_t {
+  kOk,
+  kWorkingCounter,  // some expected inputs missing, late or duplicated (see the flags per joint)
+  kBadCommand,      // a non-finite torque command was replaced by 0 N·m (counted)
+  kTxFailed,        // the channel did not take every frame (kWouldBlock / kBadFrame / kIoError)
+  kBusOff,          // the channel reports bus-off
+};
+const char* ToString(HalStatus s) noexcept;
+
+/// Per-joint / IMU input quality in the process image.
+enum class InputStatus : std::uint8_t {
+  kValid,           // exactly one TPDO answering the last SYNC arrived this cycle
+  kMissing,         // expected but not received (values are the last valid ones, see age)
+  kDuplicate,       // more than one TPDO for the same SYNC (values not updated)
+  kDeviceFault,     // received, but the status word reports a fault (values updated)
+  kNotOperational,  // the device is not in SAFE-OP or OP
+};
+const char* ToString(InputStatus s) noexcept;
+
+/// Values are NaN until the first valid frame, so that a consumer ignoring `status` cannot mistake
+/// "never received" for a reading.
+struct JointInput {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  double position_rad = kNaN;
+  double velocity_rad_s = kNaN;
+  double torque_Nm = kNaN;         // from the load cell through r(q) (HFE/KFE) or torque sensor
+  double sensor_value = kNaN;      // cylinder force in N (HFE/KFE) or HAA torque in N·m
+  std::int32_t position_counts = 0;
+  std::int32_t velocity_counts_s = 0;
+  std::int32_t effort_counts = 0;
+  std::uint16_t status_word = 0;
+  InputStatus status = InputStatus::kNotOperational;
+  std::uint32_t age_cycles = 0;    // cycles since the values were last fresh (0 = this cycle)
+  DeviceState device_state = DeviceState::kInit;
+  bool valid() const noexcept { return status == InputStatus::kValid; }
+};
+
+struct ImuInput {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  std::array<double, 3> gyro_rad_s{kNaN, kNaN, kNaN};   // IMU frame
+  std::array<double, 3> accel_m_s2{kNaN, kNaN, kNaN};   // specific force, IMU frame
+  std::uint16_t status_word = 0;
+  InputStatus status = InputStatus::kNotOperational;
+  std::uint32_t age_cycles = 0;
+  DeviceState device_state = DeviceState::kInit;
+  bool valid() const noexcept { return status == InputStatus::kValid; }
+};
+
+struct JointCommand {
+  double torque_Nm = 0.0;  // applied only while the joint's device is in OP; clamped to the limit
+};
+
+struct WorkingCounter {
+  std::uint32_t expected = 0;
+  std::uint32_t received = 0;
+  bool ok() const noexcept { return expected == received; }
+};
+
+/// The process image: inputs of the last Read, outputs for the next Write. Joint order lf, rf,
+/// lh, rh x haa, hfe, kfe.
+struct ProcessImage {
+  std::uint64_t cycle = 0;  // Read calls so far
+  std::array<JointInput, kNumJoints> joints{};
+  ImuInput imu;
+  std::array<JointCommand, kNumJoints> commands{};
+  WorkingCounter wkc;       // all buses, last Read
+};
+
+struct BusCounters {
+  std::uint64_t cycles = 0;
+  std::uint64_t rx_frames = 0;
+  std::uint64_t tx_frames = 0;
+  std::uint64_t wkc_faults = 0;      // cycles whose working counter did not match
+  std::uint64_t missing = 0;         // device inputs expected but not received
+  std::uint64_t late = 0;            // TPDOs answering an older SYNC (not used)
+  std::uint64_t duplicate = 0;
+  std::uint64_t malformed = 0;       // frames that failed to decode (never used)
+  std::uint64_t unknown = 0;         // frames from ids no configured device owns
+  std::uint64_t error_frames = 0;    // error frames passed up by the driver
+  std::uint64_t emcy = 0;
+  std::uint64_t bad_commands = 0;    // non-finite torque commands replaced by 0
+  std::uint64_t saturated = 0;       // commands clamped to the torque limit
+  std::uint64_t tx_failed = 0;       // frames the channel did not take
+  std::uint64_t tx_queue_overflow = 0;
+  std::uint64_t rx_backlog = 0;      // cycles that left frames in the channel (RX budget hit)
+  std::uint64_t rx_errors = 0;       // Receive returned something other than kOk
+  std::uint64_t bus_off = 0;         // cycles in which the channel reported bus-off
+  std::uint64_t last_fault_cycle = 0;
+  std::uint8_t last_fault_node = 0;
+  std::uint16_t last_emcy_code = 0;
+  std::uint8_t last_emcy_node = 0;
+};
+
+class Bus {
+ public:
+  static constexpr std::size_t kRxBatch = 64;
+  static constexpr std::size_t kMaxRxPerCycle = 256;
+
+  /// `calibration` and `channel` are not owned and must outlive the Bus.
+  Bus(BusConfig config, const TimingConfig& timing,
+      const std::array<JointCalibration, kNumJoints>* calibration, CanChannel* channel);
+
+  HalStatus Read(std::int64_t now_ns, std::uint64_t cycle, ProcessImage* image) noexcept;
+  HalStatus Write(std::int64_t now_ns, const ProcessImage& image) noexcept;
+
+  void RequestState(DeviceState target, std::int64_t now_ns) noexcept;
+  void AcknowledgeFaults(std::int64_t now_ns) noexcept;
+  bool AllIn(DeviceState s) const noexcept;
+
+  const BusConfig& config() const noexcept { return config_; }
+  std::span<const DeviceRuntime> devices() const noexcept { return devices_; }
+  const BusCounters& counters() const noexcept { return counters_; }
+  WorkingCounter wkc() const noexcept { return wkc_; }
+  std::uint8_t sync_counter() const noexcept { return sync_counter_; }
+  CanChannel& channel() noexcept { return *channel_; }
+
+ private:
+  void HandleFrame(const CanFrame& f, StateMachineContext& ctx) noexcept;
+  void Publish(const DeviceRuntime& d, ProcessImage* image) noexcept;
+  void Flush() noexcept;
+  StateMachineContext Context(std::int64_t now_ns) noexcept;
+
+  BusConfig config_;
+  StateMachineTiming timing_;
+  const std::array<JointCalibration, kNumJoints>* calibration_;
+  CanChannel* channel_;
+  std::vector<DeviceRuntime> devices_;
+  std::array<std::int8_t, kMaxNodeId + 1> node_to_device_{};
+  std::array<CanFrame, kRxBatch> rx_{};
+  std::vector<CanFrame> tx_storage_;
+  FrameQueue tx_;
+  std::uint8_t sync_counter_ = 0;  // of the last SYNC sent; 0 = none yet
+  std::uint64_t cycle_ = 0;
+  bool saw_bus_off_ = false;
+  bool sync_since_read_ = false;   // a SYNC went out since the last Read: inputs are expected
+  WorkingCounter wkc_;
+  BusCounters counters_;
+};
+
+enum class BringUpStatus : std::uint8_t { kInProgress, kComplete, kTimedOut };
+
+class Hal {
+ public:
+  /// channels[i] carries config.buses[i]; not owned, must outlive the Hal. Validates the
+  /// configuration (ValidateHalConfig, including the bus-load limit) and throws ConfigError.
+  Hal(HalConfig config, std::span<CanChannel* const> channels);
+
+  HalStatus Read(std::int64_t now_ns) noexcept;
+  HalStatus Write(std::int64_t now_ns) noexcept;
+
+  ProcessImage& image() noexcept { return image_; }
+  const ProcessImage& image() const noexcept { return image_; }
+
+  /// Every device's target; also starts the bring-up clock when going up.
+  void RequestState(DeviceState target, std::int64_t now_ns) noexcept;
+  /// Clears latched errors so devices in SAFE-OP may go back to OP.
+  void AcknowledgeFaults(std::int64_t now_ns) noexcept;
+  bool AllIn(DeviceState s) const noexcept;
+  /// Whether every device reached the last requested target within timing.bringup_timeout_s.
+  BringUpStatus PollBringUp(std::int64_t now_ns) const noexcept;
+  /// Who is not in the requested state, in which state, with the last error and heartbeat age
+  /// (allocates; for logs and exceptions, not for the cycle).
+  std::string BringUpReport(std::int64_t now_ns) const;
+
+  std::size_t num_buses() const noexcept { return buses_.size(); }
+  Bus& bus(std::size_t i) { return *buses_.at(i); }
+  const Bus& bus(std::size_t i) const { return *buses_.at(i); }
+  const HalConfig& config() const noexcept { return config_; }
+
+ private:
+  HalConfig config_;
+  std::vector<std::unique_ptr<Bus>> buses_;
+  ProcessImage image_;
+  DeviceState target_ = DeviceState::kInit;
+  std::int64_t bringup_start_ns_ = 0;
+};
+
+/// Runs cycles (Read, Write, then `next_cycle`, which waits for or simulates the next period and
+/// returns the new time) until every device is in `target`; throws ConfigError with
+/// Hal::BringUpReport when timing.bringup_timeout_s passes first. Configuration-time only.
+void RunBringUp(Hal& hal, DeviceState target, std::int64_t now_ns,
+                const std::function<std::int64_t()>& next_cycle);
+
+}  // namespace hyq::hal

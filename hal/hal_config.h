@@ -1,0 +1,75 @@
+// Plain configuration structs for the HAL (house style §1: hal declares them, config/ fills them
+// from YAML, see config/hal_config_loader.h). Joint order everywhere: legs lf, rf, lh, rh, each
+// haa, hfe, kfe; joint index = 3 * leg + {0, 1, 2}.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "hal/calibration.h"
+
+namespace hyq::hal {
+
+inline constexpr int kNumLegs = 4;
+inline constexpr int kJointsPerLeg = 3;
+inline constexpr int kNumJoints = kNumLegs * kJointsPerLeg;
+inline constexpr int kMaxBuses = 8;
+inline constexpr int kMaxDevicesPerBus = 16;
+
+/// "lf_haa_joint", ... for joint 0..11; "" outside.
+std::string_view JointName(int joint) noexcept;
+/// The index of a joint name, or -1.
+int JointIndex(std::string_view name) noexcept;
+
+enum class DeviceKind : std::uint8_t { kActuator, kImu };
+
+struct DeviceConfig {
+  std::string name;                      // e.g. "lf_haa" or "imu"
+  DeviceKind kind = DeviceKind::kActuator;
+  std::uint8_t node_id = 1;              // CANopen node id 1..127, unique on its bus
+  int joint = -1;                        // joint index for actuators, -1 for the IMU
+};
+
+struct BusConfig {
+  std::string name;                       // "lf", ...
+  std::string interface;                  // "can0", "vcan0", "udp:239.74.163.2:43113", ...
+  bool fd = true;                         // CAN FD with bit-rate switch
+  std::uint32_t nominal_bitrate = 1'000'000;  // arbitration phase, bit/s
+  std::uint32_t data_bitrate = 5'000'000;     // FD data phase, bit/s
+  std::vector<DeviceConfig> devices;
+};
+
+struct TimingConfig {
+  double cycle_period_s = 0.001;       // SYNC period
+  double state_timeout_s = 0.5;        // a requested state transition must finish within this
+  double bringup_timeout_s = 3.0;      // all devices in the requested state within this
+  double heartbeat_period_s = 0.1;     // producer heartbeat time of the boards
+  double heartbeat_timeout_s = 0.35;   // consumer time: no heartbeat for this long = device lost
+  int max_missed_cycles = 3;           // consecutive cycles without inputs before OP -> SAFE-OP
+  int min_valid_cycles_for_op = 5;     // consecutive valid cycles in SAFE-OP before enabling
+};
+
+struct HalConfig {
+  TimingConfig timing;
+  double max_bus_load = 0.80;          // refuse a layout whose worst-case load exceeds this
+  bool heartbeats_in_worst_case = true;  // count every heartbeat landing in the same cycle
+  std::vector<BusConfig> buses;
+  std::array<JointCalibration, kNumJoints> joints{};
+};
+
+/// HyQ's default layout and calibration: the same numbers as config/hyq_hal.yaml (the tests check
+/// that the two agree). Four FD buses at 1/5 Mbit/s, one per leg (nodes haa 1, hfe 2, kfe 3),
+/// the IMU (node 16) on the lf bus.
+HalConfig DefaultHalConfig();
+
+/// Throws ConfigError when the configuration is unusable: no buses or more than kMaxBuses, more
+/// than kMaxDevicesPerBus devices on a bus, a node id outside 1..127 or used twice on a bus, a
+/// joint missing or configured twice, more than one IMU, a non-FD bus (the PDO layout needs FD),
+/// a bad calibration (ValidateCalibration), bad timing, or a bus whose worst-case load exceeds
+/// max_bus_load (CheckBusLoad).
+void ValidateHalConfig(const HalConfig& config);
+
+}  // namespace hyq::hal

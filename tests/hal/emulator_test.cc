@@ -1,0 +1,157 @@
+// The device emulator on its own, driven by a hand-written master on a loopback endpoint.
+#include "hal/emulator.h"
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <vector>
+
+#include "hal/loopback_bus.h"
+#include "tests/hal/hal_fixture.h"
+
+namespace hyq::hal {
+namespace {
+
+class EmulatorAlone : public ::testing::Test {
+ protected:
+  EmulatorAlone() : config_(DefaultHalConfig()) {
+    for (const BusConfig& b : config_.buses) {
+      wires_.push_back(std::make_unique<LoopbackBus>(b.name, 2, 256, true));
+      devices_.push_back(&wires_.back()->endpoint(1));
+    }
+    emu_ = std::make_unique<Emulator>(config_, devices_);
+  }
+  LoopbackEndpoint& master() { return wires_[1]->endpoint(0); }  // bus rf: nodes 1, 2, 3
+  void Send(const CanFrame& f) {
+    std::size_t sent = 0;
+    ASSERT_EQ(master().Send({&f, 1}, &sent), CanStatus::kOk);
+  }
+  std::vector<CanFrame> Poll() {
+    emu_->Poll(now_);
+    now_ += 1'000'000;
+    std::vector<CanFrame> out;
+    std::array<CanFrame, 64> rx;
+    std::size_t n = 0;
+    (void)master().Receive(rx, &n);
+    out.assign(rx.begin(), rx.begin() + static_cast<std::ptrdiff_t>(n));
+    return out;
+  }
+  static const CanFrame* Find(const std::vector<CanFrame>& v, std::uint32_t id) {
+    for (const CanFrame& f : v)
+      if (f.id == id) return &f;
+    return nullptr;
+  }
+
+  HalConfig config_;
+  std::vector<std::unique_ptr<LoopbackBus>> wires_;
+  std::vector<CanChannel*> devices_;
+  std::unique_ptr<Emulator> emu_;
+  std::int64_t now_ = 1'000'000'000;
+};
+
+TEST_F(EmulatorAlone, AnswersNmtSyncAndRpdo) {
+  // power-on: boot-up from each board
+  std::vector<CanFrame> rx = Poll();
+  for (std::uint32_t n = 1; n <= 3; ++n) {
+    const CanFrame* f = Find(rx, 0x700 + n);
+    ASSERT_NE(f, nullptr) << n;
+    EXPECT_EQ(f->data[0], 0x00);
+  }
+  // pre-operational: SYNC is not answered
+  Send(EncodeSync(1));
+  EXPECT_EQ(Find(Poll(), 0x181), nullptr);
+  // start node 2 only
+  Send(EncodeNmt(NmtCommand::kStart, 2));
+  Send(EncodeSync(2));
+  rx = Poll();
+  EXPECT_EQ(Find(rx, 0x181), nullptr);
+  ASSERT_NE(Find(rx, 0x182), nullptr);
+  ActuatorTpdo p;
+  ASSERT_EQ(DecodeActuatorTpdo(*Find(rx, 0x182), 2, &p), PdoStatus::kOk);
+  EXPECT_EQ(p.sync_counter, 2);
+  EXPECT_EQ(p.status & status_bit::kEnabled, 0);
+  EXPECT_EQ(emu_->nmt_state(4), NmtState::kOperational);  // rf_hfe
+  // enable with a set-point
+  Send(EncodeActuatorRpdo(2, {12345, control_bit::kEnable, 3, 0}));
+  Send(EncodeSync(3));
+  rx = Poll();
+  ASSERT_EQ(DecodeActuatorTpdo(*Find(rx, 0x182), 2, &p), PdoStatus::kOk);
+  EXPECT_NE(p.status & status_bit::kEnabled, 0);
+  EXPECT_TRUE(emu_->outputs_enabled(4));
+  EXPECT_NEAR(emu_->torque_setpoint_Nm(4), 12.345, 1e-12);
+  EXPECT_EQ(emu_->rpdos_received(4), 1u);
+}
+
+TEST_F(EmulatorAlone, RpdoWatchdogMalformedRpdoStopAndBusOff) {
+  (void)Poll();
+  Send(EncodeNmt(NmtCommand::kStart, 0));
+  Send(EncodeActuatorRpdo(1, {1000, control_bit::kEnable, 1, 0}));
+  Send(EncodeSync(1));
+  (void)Poll();
+  EXPECT_TRUE(emu_->outputs_enabled(3));
+  // three SYNCs without a set-point: outputs off, status bit, EMCY 0x8250
+  std::vector<CanFrame> rx;
+  for (std::uint8_t c = 2; c <= 4; ++c) {
+    Send(EncodeSync(c));
+    rx = Poll();
+  }
+  EXPECT_FALSE(emu_->outputs_enabled(3));
+  EXPECT_EQ(emu_->torque_setpoint_Nm(3), 0.0);
+  const CanFrame* e = Find(rx, 0x081);
+  ASSERT_NE(e, nullptr);
+  EmcyMessage m;
+  ASSERT_EQ(DecodeEmcy(*e, 1, &m), PdoStatus::kOk);
+  EXPECT_EQ(m.code, emcy::kRpdoTimeout);
+  ActuatorTpdo p;
+  ASSERT_EQ(DecodeActuatorTpdo(*Find(rx, 0x181), 1, &p), PdoStatus::kOk);
+  EXPECT_NE(p.status & status_bit::kRpdoWatchdog, 0);
+  // a malformed RPDO: EMCY 0x8210
+  CanFrame bad = EncodeActuatorRpdo(2, {});
+  bad.len = 4;
+  Send(bad);
+  rx = Poll();
+  ASSERT_NE(Find(rx, 0x082), nullptr);
+  ASSERT_EQ(DecodeEmcy(*Find(rx, 0x082), 2, &m), PdoStatus::kOk);
+  EXPECT_EQ(m.code, emcy::kPdoLength);
+  EXPECT_EQ(emu_->counters(1).malformed_rx, 1u);
+  // NMT stop: no more TPDOs
+  Send(EncodeNmt(NmtCommand::kStop, 0));
+  Send(EncodeSync(5));
+  EXPECT_EQ(Find(Poll(), 0x181), nullptr);
+  // bus-off: silent; recovery: EMCY 0x8140 from every board
+  Send(EncodeNmt(NmtCommand::kStart, 0));
+  (void)Poll();
+  emu_->SetBusOff(1, true);
+  Send(EncodeSync(6));
+  EXPECT_TRUE(Poll().empty());
+  emu_->SetBusOff(1, false);
+  rx = Poll();
+  for (std::uint32_t n = 1; n <= 3; ++n) {
+    ASSERT_NE(Find(rx, 0x080 + n), nullptr) << n;
+    ASSERT_EQ(DecodeEmcy(*Find(rx, 0x080 + n), static_cast<std::uint8_t>(n), &m), PdoStatus::kOk);
+    EXPECT_EQ(m.code, emcy::kBusOffRecovered);
+  }
+}
+
+TEST(EmulatorWithHal, RandomDropsAreCountedOneForOneOverManyCycles) {
+  testing::HalRig rig(DefaultHalConfig(), /*seed=*/12345);
+  rig.BringUp();
+  for (int j = 0; j < kNumJoints; ++j) rig.emu->joint_faults(j).drop_probability = 0.01;
+  rig.emu->imu_faults().drop_probability = 0.01;
+  for (int i = 0; i < 3000; ++i) (void)rig.Step();  // > 12 wraps of the SYNC counter
+  (void)rig.hal->Read(rig.now_ns);                  // the answers to the last SYNC
+  std::uint64_t dropped = 0, missing = 0, late = 0, malformed = 0;
+  for (std::size_t b = 0; b < rig.hal->num_buses(); ++b) {
+    dropped += rig.emu->counters(static_cast<int>(b)).dropped;
+    missing += rig.hal->bus(b).counters().missing;
+    late += rig.hal->bus(b).counters().late;
+    malformed += rig.hal->bus(b).counters().malformed;
+  }
+  EXPECT_GT(dropped, 200u);
+  EXPECT_EQ(missing, dropped) << "every dropped TPDO is exactly one missing input";
+  EXPECT_EQ(late + malformed, 0u);
+  EXPECT_TRUE(rig.hal->AllIn(DeviceState::kOp)) << rig.hal->BringUpReport(rig.now_ns);
+}
+
+}  // namespace
+}  // namespace hyq::hal

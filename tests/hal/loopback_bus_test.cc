@@ -1,0 +1,67 @@
+#include "hal/loopback_bus.h"
+
+#include <gtest/gtest.h>
+
+#include <array>
+
+#include "hal/protocol.h"
+
+namespace hyq::hal {
+namespace {
+
+TEST(LoopbackBus, EveryOtherEndpointReceivesWhatOneSends) {
+  LoopbackBus bus("t", 3, 8);
+  const CanFrame f = EncodeSync(9);
+  std::size_t sent = 0;
+  ASSERT_EQ(bus.endpoint(0).Send({&f, 1}, &sent), CanStatus::kOk);
+  EXPECT_EQ(sent, 1u);
+  std::array<CanFrame, 4> rx;
+  std::size_t n = 0;
+  EXPECT_EQ(bus.endpoint(0).Receive(rx, &n), CanStatus::kOk);
+  EXPECT_EQ(n, 0u) << "the sender does not hear itself";
+  for (std::size_t e : {1u, 2u}) {
+    ASSERT_EQ(bus.endpoint(e).Receive(rx, &n), CanStatus::kOk);
+    ASSERT_EQ(n, 1u);
+    EXPECT_EQ(rx[0].id, 0x080u);
+    EXPECT_EQ(rx[0].data[0], 9);
+  }
+  EXPECT_EQ(bus.endpoint(0).counters().tx_frames, 1u);
+  EXPECT_EQ(bus.endpoint(2).counters().rx_frames, 1u);
+  EXPECT_EQ(bus.endpoint(1).name(), "t.1");
+}
+
+TEST(LoopbackBus, FullQueueCountsOverflowAndKeepsOrder) {
+  LoopbackBus bus("t", 2, 4);
+  std::array<CanFrame, 6> tx;
+  for (std::size_t i = 0; i < tx.size(); ++i) tx[i] = EncodeSync(static_cast<std::uint8_t>(i + 1));
+  std::size_t sent = 0;
+  ASSERT_EQ(bus.endpoint(0).Send(tx, &sent), CanStatus::kOk);
+  EXPECT_EQ(bus.endpoint(1).counters().rx_overflow, 2u);
+  std::array<CanFrame, 8> rx;
+  std::size_t n = 0;
+  ASSERT_EQ(bus.endpoint(1).Receive(rx, &n), CanStatus::kOk);
+  ASSERT_EQ(n, 4u);
+  for (std::size_t i = 0; i < n; ++i) EXPECT_EQ(rx[i].data[0], i + 1);
+}
+
+TEST(LoopbackBus, ClassicBusRefusesFdFramesAndBusOffStopsTraffic) {
+  LoopbackBus classic("c", 2, 4, /*fd=*/false);
+  const CanFrame fd = EncodeActuatorTpdo(1, {});
+  std::size_t sent = 0;
+  EXPECT_EQ(classic.endpoint(0).Send({&fd, 1}, &sent), CanStatus::kBadFrame);
+  EXPECT_EQ(sent, 0u);
+  EXPECT_EQ(classic.endpoint(0).counters().bad_frames, 1u);
+
+  LoopbackBus bus("b", 2, 4);
+  bus.SetBusOff(true);
+  const CanFrame f = EncodeSync(1);
+  EXPECT_EQ(bus.endpoint(0).Send({&f, 1}, &sent), CanStatus::kBusOff);
+  EXPECT_EQ(bus.endpoint(0).counters().bus_state, BusState::kBusOff);
+  EXPECT_EQ(bus.endpoint(0).counters().bus_off_events, 1u);
+  bus.SetBusOff(false);
+  EXPECT_EQ(bus.endpoint(0).Send({&f, 1}, &sent), CanStatus::kOk);
+  EXPECT_EQ(bus.endpoint(1).pending(), 1u);
+}
+
+}  // namespace
+}  // namespace hyq::hal
