@@ -66,7 +66,8 @@ ChannelSpec ParseChannelSpec(std::string_view spec) {
     SocketCanOptions o;
     o.fd = kind == "socketcan" ? FdMode::kAuto
                                : (kind == "socketcan-fd" ? FdMode::kRequire : FdMode::kOff);
-    if (kind_end != colon) Bad(spec, std::string(kind) + ":IFNAME", spec);
+    if (colon == std::string_view::npos || kind_end != colon)
+      Bad(spec, std::string(kind) + ":IFNAME", spec);
     const std::string_view ifname = SplitOptions(spec, body, [&](auto key, auto value) {
       if (key == "batch") {
         o.batch = static_cast<std::size_t>(ParseInt(spec, value, 1, 1024, "batch"));
@@ -114,7 +115,7 @@ ChannelSpec ParseChannelSpec(std::string_view spec) {
 
   if (kind == "replay") {
     ReplayOptions o;
-    if (kind_end != colon) Bad(spec, "replay:PATH", spec);
+    if (colon == std::string_view::npos || kind_end != colon) Bad(spec, "replay:PATH", spec);
     const std::string_view path = SplitOptions(spec, body, [&](auto key, auto value) {
       if (key == "iface") {
         o.iface = std::string(value);
