@@ -29,6 +29,9 @@ int HexValue(char c) noexcept {
 
 bool IsSpace(char c) noexcept { return c == ' ' || c == '\t'; }
 
+// interface names in a log: printable ASCII without spaces (what IFNAMSIZ names look like)
+bool IsIfaceChar(char c) noexcept { return c > ' ' && c < 0x7F; }
+
 // a tiny bounded output cursor
 class Out {
  public:
@@ -93,7 +96,7 @@ std::size_t FormatCandumpLine(const CanFrame& frame, std::string_view iface,
                               std::span<char> out) noexcept {
   if (!IsValidFrame(frame) || iface.empty() || iface.size() > kMaxIfaceName) return 0;
   for (char c : iface)
-    if (IsSpace(c) || c == '\n' || c == '\r' || c == '\0') return 0;
+    if (!IsIfaceChar(c)) return 0;
   std::int64_t t = frame.timestamp_ns < 0 ? 0 : frame.timestamp_ns;
   Out o(out);
   o.Put('(');
@@ -170,7 +173,7 @@ bool ParseCandumpLine(std::string_view line, CandumpRecord* rec, const char** wh
   std::size_t n = 0;
   while (p < line.size() && !IsSpace(line[p])) {
     if (n >= kMaxIfaceName) return fail("interface name longer than 15 characters");
-    if (line[p] == '\0') return fail("NUL byte in the interface name");
+    if (!IsIfaceChar(line[p])) return fail("control or non-ASCII byte in the interface name");
     rec->iface[n++] = line[p++];
   }
   if (n == 0) return fail("expected an interface name");

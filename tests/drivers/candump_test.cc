@@ -130,7 +130,8 @@ TEST(Candump, MalformedLinesNameFileAndLine) {
       {"(1.1) vcan0 123#R9", "unexpected character"},
       {"(1.1) vcan0 20000040##000", "cannot be an FD"},
       {"(1.1) vcan0 A0000040#00", "EFF/RTR"},
-      {std::string("(1.1) vc\0n0 123#00", 18), "NUL"},
+      {std::string("(1.1) vc\0n0 123#00", 18), "control or non-ASCII"},
+      {"(1.1) vc\rn0 123#00", "control or non-ASCII"},
   };
   for (const auto& [line, why] : bad) {
     const std::string text = "(1.0) vcan0 123#00\n" + line + "\n";
