@@ -8,9 +8,11 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <filesystem>
 #include <thread>
 #include <vector>
 
+#include "drivers/candump.h"
 #include "drivers/channel_error.h"
 #include "drivers/channel_factory.h"
 #include "drivers/socket_util.h"
@@ -296,6 +298,50 @@ TEST(UdpMulticastChannel, OpensFromSpec) {
   const auto got = ReceiveN(*b, 1);
   ASSERT_EQ(got.size(), 1u);
   EXPECT_TRUE(SameFrame(got[0], f));
+}
+
+}  // namespace
+}  // namespace hyq::drivers
+
+namespace hyq::drivers {
+namespace {
+
+TEST(HyqCandumpTool, RecordsAndPlaysTheVirtualBus) {
+  HYQ_REQUIRE_PRIVATE_NETNS();
+  const std::string spec = "udp::" + std::to_string(TestPort());
+  const std::string log = std::filesystem::temp_directory_path().string() + "/hyq_tool_" +
+                          std::to_string(getpid()) + ".log";
+  const std::vector<CanFrame> frames = {Classic(0x181, {1, 2}), Fd(0x281, 16, 3),
+                                        Remote(0x701, 0)};
+  {
+    testing::Child rec({HYQ_CANDUMP_TOOL, "-o", log, "-L", "vcan0", "-n", "3", "-t", "20", spec},
+                       true);
+    std::string seen;
+    ASSERT_TRUE(rec.WaitForLine("hyq-candump: recording", std::chrono::seconds(10), &seen))
+        << seen;
+    UdpMulticastChannel tx(Opts(TestPort()));
+    std::size_t sent = 0;
+    ASSERT_EQ(tx.Send(frames, &sent), CanStatus::kOk);
+    EXPECT_EQ(rec.Wait(std::chrono::seconds(20)), 0);
+  }
+  const CandumpLog recorded = ReadCandumpFile(log);
+  ASSERT_EQ(recorded.records.size(), frames.size());
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    EXPECT_TRUE(SameFrame(recorded.records[i].frame, frames[i]));
+    EXPECT_EQ(recorded.records[i].iface_name(), "vcan0");
+  }
+
+  UdpMulticastChannel rx(Opts(TestPort()));
+  std::string out;
+  ASSERT_EQ(testing::RunCommand({HYQ_CANDUMP_TOOL, "--play", log, spec}, &out), 0) << out;
+  const auto got = ReceiveN(rx, frames.size());
+  ASSERT_EQ(got.size(), frames.size());
+  for (std::size_t i = 0; i < frames.size(); ++i) EXPECT_TRUE(SameFrame(got[i], frames[i]));
+  std::filesystem::remove(log);
+
+  out.clear();
+  EXPECT_EQ(testing::RunCommand({HYQ_CANDUMP_TOOL, "bogus:spec"}, &out), 1);
+  EXPECT_NE(out.find("channel spec 'bogus:spec'"), std::string::npos) << out;
 }
 
 }  // namespace
