@@ -14,6 +14,7 @@
 #include "drivers/channel_factory.h"
 #include "drivers/msgpack_frame.h"
 #include "tests/drivers/test_util.h"
+#include "tests/support/no_heap_guard.h"
 
 namespace hyq::drivers {
 namespace {
@@ -294,6 +295,37 @@ TEST(Candump, RecordingChannelLogsBothDirections) {
   EXPECT_EQ(log.records[2].iface_name(), "vcan2");
   std::filesystem::remove(in_path);
   std::filesystem::remove(out_path);
+}
+
+}  // namespace
+}  // namespace hyq::drivers
+
+namespace hyq::drivers {
+namespace {
+
+TEST(Candump, NoHeapWhenRecordingOrReplaying) {
+  HYQ_REQUIRE_HEAP_HOOKS();
+  const auto path = TempPath("noheap.log");
+  std::string text;
+  for (std::uint32_t i = 0; i < 64; ++i) text += Line(Fd(0x180 + i, 16, 1), i * 1000);
+  ReplayChannel replay(ReadCandumpText(text, "mem").records, "", ReplayTiming::kAsFast, true, "r");
+  CandumpWriter writer(path.string(), "vcan0");
+  RecordingChannel rec(&replay, &writer);
+  std::array<CanFrame, 13> out;
+  std::size_t n = 0;
+  ASSERT_EQ(rec.Receive(out, &n), CanStatus::kOk);  // warm-up: stdio sets up on first write
+  for (int cycle = 0; cycle < 3; ++cycle) {
+    hyq::testing::NoHeapGuard guard;
+    const CanStatus r = rec.Receive(out, &n);
+    const CanStatus s = rec.Send(std::span<const CanFrame>(out.data(), n), &n);
+    const bool ok = writer.Flush();
+    const std::size_t allocations = guard.allocations();
+    ASSERT_EQ(r, CanStatus::kOk);
+    ASSERT_EQ(s, CanStatus::kOk);
+    ASSERT_TRUE(ok);
+    ASSERT_EQ(allocations, 0u) << "cycle " << cycle;
+  }
+  std::filesystem::remove(path);
 }
 
 }  // namespace
