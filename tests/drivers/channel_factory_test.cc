@@ -1,9 +1,12 @@
-// The channel spec grammar: what parses to what, and the message a bad spec throws.
+// The channel spec grammar: what parses to what, and the message a bad spec throws; the
+// throwing set-up wrappers.
 #include "drivers/channel_factory.h"
 
 #include <gtest/gtest.h>
 
+#include "drivers/candump.h"
 #include "drivers/channel_error.h"
+#include "drivers/channel_setup.h"
 
 namespace hyq::drivers {
 namespace {
@@ -91,6 +94,31 @@ TEST(ChannelSpec, OpenFailuresNameTheSpec) {
     FAIL();
   } catch (const ChannelError& e) {
     EXPECT_NE(std::string(e.what()).find("socketcan:nosuchcan9"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace hyq::drivers
+
+namespace hyq::drivers {
+namespace {
+
+TEST(ChannelSetup, ThrowingWrappersNameChannelAndStatus) {
+  CandumpRecord r;
+  r.frame.id = 0x123;
+  r.frame.len = 1;
+  ReplayChannel ch({r, r}, "", ReplayTiming::kAsFast, false, "replay:test");
+  std::array<hal::CanFrame, 4> out;
+  EXPECT_EQ(ReceiveOrThrow(ch, out), 2u);
+  hal::CanFrame good = r.frame, fd = r.frame;
+  fd.flags = hal::CanFrame::kFd;
+  const std::array<hal::CanFrame, 3> frames = {good, good, fd};
+  SendAllOrThrow(ch, std::span<const hal::CanFrame>(frames.data(), 2));
+  try {
+    SendAllOrThrow(ch, frames);
+    FAIL();
+  } catch (const ChannelError& e) {
+    EXPECT_STREQ(e.what(), "replay:test: send of frame 3 of 3 failed: bad_frame");
   }
 }
 
