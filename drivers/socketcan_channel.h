@@ -50,7 +50,9 @@ class SocketCanChannel final : public hal::CanChannel {
   bool fd_enabled() const noexcept override { return fd_; }
   std::string_view name() const noexcept override { return options_.name; }
 
-  int fd() const noexcept { return sock_; }
+  /// The socket, for poll()/epoll() by callers that want to sleep until frames arrive (tools,
+  /// the device emulator); -1 when closed. Do not read from it directly.
+  int receive_fd() const noexcept { return sock_; }
   void Close() noexcept;
 
  private:

@@ -62,6 +62,10 @@ class UdpMulticastChannel final : public hal::CanChannel {
   std::uint16_t sender_port() const noexcept;
   const UdpMulticastOptions& options() const noexcept { return options_; }
 
+  /// The receiving socket, for poll()/epoll() by callers that want to sleep until datagrams
+  /// arrive; -1 when closed. Readable also for our own echoes, which Receive() drops.
+  int receive_fd() const noexcept { return rx_fd_; }
+
   /// Closes both sockets; later calls return kClosed.
   void Close() noexcept;
 

@@ -7,6 +7,8 @@
 // udp:239.74.163.2:43113. NAME is the interface name written in (or selected from) the log;
 // by default the SocketCAN interface, else "can0" when recording and every line when playing.
 // Recording stops after COUNT frames, after SECONDS, or on SIGINT/SIGTERM, and flushes the log.
+#include <poll.h>
+
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
@@ -36,6 +38,13 @@ std::int64_t MonotonicNs() {
 
 void SleepUs(long us) { std::this_thread::sleep_for(std::chrono::microseconds(us)); }
 
+// The channel's receive socket when it has one (to sleep in poll), else -1.
+int ReceiveFd(hyq::hal::CanChannel& ch) {
+  if (auto* u = dynamic_cast<hyq::drivers::UdpMulticastChannel*>(&ch)) return u->receive_fd();
+  if (auto* s = dynamic_cast<hyq::drivers::SocketCanChannel*>(&ch)) return s->receive_fd();
+  return -1;
+}
+
 int Usage(const char* why) {
   std::fprintf(stderr,
                "hyq-candump: %s\n"
@@ -59,6 +68,7 @@ int Record(hyq::hal::CanChannel& ch, const std::string& out_path, const std::str
   const std::int64_t end =
       seconds > 0 ? MonotonicNs() + static_cast<std::int64_t>(seconds * 1e9) : INT64_MAX;
   long recorded = 0;
+  const int fd = ReceiveFd(ch);
   while (g_stop == 0 && (count <= 0 || recorded < count) && MonotonicNs() < end) {
     std::size_t n = 0;
     const hyq::hal::CanStatus s = ch.Receive(buf, &n);
@@ -71,6 +81,9 @@ int Record(hyq::hal::CanChannel& ch, const std::string& out_path, const std::str
       (void)writer.Write(buf[i]);
     if (n > 0) {
       writer.Flush();
+    } else if (fd >= 0) {
+      pollfd p{fd, POLLIN, 0};
+      (void)poll(&p, 1, 100);  // wakes for data, and every 100 ms to check stop/timeout
     } else {
       SleepUs(200);
     }
