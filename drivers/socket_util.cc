@@ -1,0 +1,60 @@
+#include "drivers/socket_util.h"
+
+#include <sys/socket.h>
+
+#include <cerrno>
+#include <cstring>
+#include <ctime>
+#include <string>
+
+#include "drivers/channel_error.h"
+
+namespace hyq::drivers {
+
+std::string SystemErrorText(const std::string& what, int err) {
+  return what + ": " + std::strerror(err);
+}
+
+namespace internal {
+
+std::size_t RxControlBytes() noexcept {
+  return CMSG_SPACE(sizeof(timespec)) + CMSG_SPACE(sizeof(std::uint32_t));
+}
+
+RxAncillary ParseRxAncillary(const msghdr& msg) noexcept {
+  RxAncillary a;
+  if ((msg.msg_flags & MSG_CTRUNC) != 0 && msg.msg_controllen == 0) return a;
+  // CMSG_FIRSTHDR/CMSG_NXTHDR take a non-const msghdr and use C casts inside
+  msghdr* m = const_cast<msghdr*>(&msg);
+  for (cmsghdr* c = CMSG_FIRSTHDR(m); c != nullptr; c = CMSG_NXTHDR(m, c)) {
+    if (c->cmsg_level != SOL_SOCKET) continue;
+    if (c->cmsg_type == SCM_TIMESTAMPNS && c->cmsg_len >= CMSG_LEN(sizeof(timespec))) {
+      timespec ts;
+      std::memcpy(&ts, CMSG_DATA(c), sizeof ts);
+      a.timestamp_ns = std::int64_t{ts.tv_sec} * 1'000'000'000 + ts.tv_nsec;
+    } else if (c->cmsg_type == SO_RXQ_OVFL && c->cmsg_len >= CMSG_LEN(sizeof(std::uint32_t))) {
+      std::memcpy(&a.drops, CMSG_DATA(c), sizeof a.drops);
+      a.have_drops = true;
+    }
+  }
+  return a;
+}
+
+std::int64_t RealtimeNs() noexcept {
+  timespec ts{};
+  clock_gettime(CLOCK_REALTIME, &ts);
+  return std::int64_t{ts.tv_sec} * 1'000'000'000 + ts.tv_nsec;
+}
+
+void SetIntOption(int fd, int level, int option, int value, const char* what) {
+  if (setsockopt(fd, level, option, &value, sizeof value) != 0)
+    throw ChannelError(SystemErrorText(std::string("setsockopt ") + what, errno));
+}
+
+void EnableRxTimestampsAndDrops(int fd, const char* what) {
+  SetIntOption(fd, SOL_SOCKET, SO_TIMESTAMPNS, 1, (std::string(what) + " SO_TIMESTAMPNS").c_str());
+  SetIntOption(fd, SOL_SOCKET, SO_RXQ_OVFL, 1, (std::string(what) + " SO_RXQ_OVFL").c_str());
+}
+
+}  // namespace internal
+}  // namespace hyq::drivers

@@ -1,0 +1,31 @@
+// Helpers shared by the socket drivers (internal to drivers/).
+#pragma once
+
+#include <sys/socket.h>
+
+#include <cstddef>
+#include <cstdint>
+
+namespace hyq::drivers::internal {
+
+/// Control-message space per received datagram: SCM_TIMESTAMPNS plus SO_RXQ_OVFL.
+std::size_t RxControlBytes() noexcept;
+
+/// What the kernel attached to one received message.
+struct RxAncillary {
+  std::int64_t timestamp_ns = 0;  // 0 when no SCM_TIMESTAMPNS came
+  bool have_drops = false;
+  std::uint32_t drops = 0;        // SO_RXQ_OVFL: the socket's cumulative drop count
+};
+RxAncillary ParseRxAncillary(const msghdr& msg) noexcept;
+
+/// CLOCK_REALTIME now, ns.
+std::int64_t RealtimeNs() noexcept;
+
+/// Turns on SO_TIMESTAMPNS and SO_RXQ_OVFL; throws ChannelError naming `what`.
+void EnableRxTimestampsAndDrops(int fd, const char* what);
+
+/// Sets a socket option to an int, throwing ChannelError with `what` on failure.
+void SetIntOption(int fd, int level, int option, int value, const char* what);
+
+}  // namespace hyq::drivers::internal
