@@ -138,7 +138,9 @@ TEST_F(MujocoReference, ThousandRandomStates) {
     mj_fullM(m_.get(), M_mj.data(), d_->qM);
     const Eigen::Map<const VectorV> h_mj(d_->qfrc_bias);
 
-    ASSERT_TRUE(NearRel(ours->M, M_mj, kTol)) << "M, state " << s;
+    ASSERT_TRUE(NearRel(ours->M, M_mj, kTol)) << "M, state " << s << "\nours\n"
+                                               << ours->M.topLeftCorner<8, 8>() << "\nmujoco\n"
+                                               << M_mj.topLeftCorner<8, 8>();
     ASSERT_TRUE(NearRel(ours->bias, h_mj, kTol)) << "bias, state " << s;
     worst_M = std::max(worst_M, (ours->M - M_mj).cwiseAbs().maxCoeff());
     worst_h = std::max(worst_h, (ours->bias - h_mj).cwiseAbs().maxCoeff());

@@ -8,9 +8,12 @@ namespace {
 thread_local bool t_active = false;
 thread_local std::size_t t_allocs = 0;
 thread_local std::size_t t_frees = 0;
+thread_local bool t_abort = false;  // HYQ_NO_HEAP_ABORT=1: abort at the allocation (for gdb)
 
 inline void NoteAlloc() noexcept {
-  if (t_active) ++t_allocs;
+  if (!t_active) return;
+  ++t_allocs;
+  if (t_abort) std::abort();
 }
 inline void NoteFree() noexcept {
   if (t_active) ++t_frees;
@@ -22,6 +25,8 @@ namespace hyq::testing {
 
 NoHeapGuard::NoHeapGuard() noexcept
     : alloc_start_(t_allocs), free_start_(t_frees), outer_active_(t_active) {
+  const char* env = std::getenv("HYQ_NO_HEAP_ABORT");
+  t_abort = env != nullptr && env[0] == '1';
   t_active = true;
 }
 NoHeapGuard::~NoHeapGuard() { t_active = outer_active_; }

@@ -8,6 +8,9 @@
 //   Crba(model, &data);                       // warm-up, may allocate
 //   { NoHeapGuard guard; Crba(model, &data); EXPECT_EQ(guard.allocations(), 0); }
 //
+// To find an allocation, run the test with HYQ_NO_HEAP_ABORT=1 under gdb: the guarded
+// allocation aborts and the backtrace shows its caller.
+//
 // The guard is per thread, so gtest's own bookkeeping in other threads does not count. Under the
 // sanitizers (which replace the allocator themselves) the hooks are compiled out and
 // NoHeapGuard::Available() is false: tests must skip with that reason printed.

@@ -1,0 +1,420 @@
+// The two-stage contact-aware ID checked as physics, not only as code: the impulse-momentum
+// equation (6) with the returned τ and impulses, the constraints (2)–(5), Stage II's energy and
+// torque-norm properties, agreement with the no-slip ID where both apply, friction behaviour,
+// Fig. 1's chatter through contact changes, the fallback chain and the heap.
+#include <cmath>
+#include <cstdio>
+
+#include <gtest/gtest.h>
+
+#include "servo/contact_free_id.h"
+#include "servo/controller.h"
+#include "tests/servo/id_fixture.h"
+#include "tests/support/no_heap_guard.h"
+
+namespace hyq::servo {
+namespace {
+
+using dynamics::CycleDynamics;
+using testing::HyqModel;
+using testing::NearRel;
+
+constexpr std::array<bool, 4> kAll{true, true, true, true};
+constexpr std::array<bool, 4> kLfRh{true, false, false, true};
+constexpr std::array<bool, 4> kRfLh{false, true, true, false};
+
+std::unique_ptr<CycleDynamics> Dyn(const IdInput& in) {
+  auto d = std::make_unique<CycleDynamics>();
+  EXPECT_EQ(dynamics::ComputeCycleDynamics(HyqModel(), in.q, in.v, d.get()),
+            dynamics::DynamicsStatus::kOk);
+  return d;
+}
+
+// Σ_i J_c,iᵀ (c_N n + c_T) from the reported per-foot impulses: the generalized impulse R z.
+VectorV GeneralizedImpulse(const CycleDynamics& d, const IdInput& in, const IdOutput& out) {
+  ContactSet set;
+  EXPECT_EQ(BuildContactSet(HyqModel(), d.feet, in, 4, &set), ContactStatus::kOk);
+  VectorV Rz = VectorV::Zero();
+  for (int i = 0; i < set.count; ++i) {
+    const ContactImpulse& c = out.impulses[set.foot[i]];
+    EXPECT_TRUE(c.active);
+    Rz += set.J_c[i].transpose() * (c.normal_Ns * set.normal_W[i] + c.tangent_Ns_W);
+  }
+  return Rz;
+}
+
+// v* from the equation of motion (6) itself: M (v* − v) = R z + h (f_ext + [0; τ]), f_ext = −h_bias
+VectorV VStarFromMomentum(const CycleDynamics& d, const IdInput& in, const IdOutput& out) {
+  VectorV rhs = GeneralizedImpulse(d, in, out) - in.dt * d.bias;
+  rhs.tail<12>() += in.dt * out.tau_Nm;
+  return in.v + d.M.llt().solve(rhs);
+}
+
+std::string Describe(const IdOutput& o) {
+  return std::string("fallback ") + ToString(o.fallback) + ", stage1 " +
+         qp::ToString(o.stage1.status) + " (" + std::to_string(o.stage1.iterations) +
+         " it), stage2 " + qp::ToString(o.stage2.status) + " (" +
+         std::to_string(o.stage2.iterations) + " it)";
+}
+
+class TwoStage : public ::testing::Test {
+ protected:
+  std::mt19937_64 rng_{42};
+  IdInput Consistent(std::array<bool, 4> stance, double scale = 1.0) {
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    IdInput in = testing::StandingInput(&rng_, stance);
+    dynamics::Vector6d vb, ab;
+    for (int i = 0; i < 6; ++i) vb(i) = 0.2 * scale * u(rng_);
+    for (int i = 0; i < 6; ++i) ab(i) = 1.0 * scale * u(rng_);
+    testing::MakeContactConsistent(&in, vb, ab, &rng_);
+    return in;
+  }
+};
+
+TEST_F(TwoStage, MomentumEquationAndJointRowsHold) {
+  for (const auto& stance : {kAll, kLfRh, kRfLh, std::array<bool, 4>{true, true, true, false}}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      const IdInput in = Consistent(stance);
+      const auto d = Dyn(in);
+      TwoStageId id;
+      IdOutput out;
+      ASSERT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kOk) << Describe(out);
+      EXPECT_EQ(out.stage1.status, qp::Status::kOptimal);
+      EXPECT_EQ(out.stage2.status, qp::Status::kOptimal);
+      const VectorV v_star = VStarFromMomentum(*d, in, out);
+      // (6) with the returned τ and impulses reproduces the method's own v*
+      EXPECT_TRUE(NearRel(v_star, out.v_star, 1e-8));
+      // (5): the joint rows give v*_q = q̇ + h q̈_des
+      const VectorJ vq = in.v.tail<12>() + in.dt * in.qdd_des;
+      EXPECT_TRUE(NearRel(VectorJ(v_star.tail<12>()), vq, 1e-8));
+    }
+  }
+}
+
+TEST_F(TwoStage, NonPenetrationAndFrictionHold) {
+  for (const auto& stance : {kAll, kLfRh}) {
+    for (int trial = 0; trial < 20; ++trial) {
+      IdInput in = Consistent(stance, 3.0);
+      in.mu = {0.3, 0.5, 0.7, 0.2};
+      const auto d = Dyn(in);
+      TwoStageId id;
+      IdOutput out;
+      ASSERT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kOk) << Describe(out);
+      ContactSet set;
+      ASSERT_EQ(BuildContactSet(HyqModel(), d->feet, in, 4, &set), ContactStatus::kOk);
+      for (int i = 0; i < set.count; ++i) {
+        const ContactImpulse& c = out.impulses[set.foot[i]];
+        // (2): normal velocity of the contact point after the step, (3), (4)
+        EXPECT_GE(set.normal_W[i].dot(set.J_c[i] * out.v_star), -1e-9);
+        EXPECT_GE(c.normal_Ns, -1e-10);
+        EXPECT_LE(c.tangent_Ns_W.norm(), in.mu[set.foot[i]] * c.normal_Ns + 1e-9);
+        EXPECT_NEAR(c.tangent_Ns_W.dot(set.normal_W[i]), 0.0, 1e-12);
+      }
+    }
+  }
+}
+
+TEST_F(TwoStage, StageTwoKeepsEnergyAndNeverRaisesTorque) {
+  int strictly_lower = 0;
+  for (int trial = 0; trial < 40; ++trial) {
+    const IdInput in = Consistent(trial % 2 ? kAll : kLfRh);
+    const auto d = Dyn(in);
+    TwoStageSettings s1;
+    s1.stage2 = false;
+    TwoStageId stage1(s1), both;
+    IdOutput o1, o2;
+    ASSERT_EQ(stage1.Solve(HyqModel(), *d, in, &o1), IdStatus::kOk) << Describe(o1);
+    ASSERT_EQ(both.Solve(HyqModel(), *d, in, &o2), IdStatus::kOk) << Describe(o2);
+    // (9): the kinetic energy after the step, from (6) with Stage II's τ and impulses
+    const VectorV v2 = VStarFromMomentum(*d, in, o2);
+    const double ke2 = 0.5 * v2.dot(d->M * v2);
+    EXPECT_NEAR(ke2, o1.kinetic_energy_J, 1e-9 * std::max(1.0, o1.kinetic_energy_J));
+    EXPECT_LE(o2.tau_Nm.norm(), o1.tau_Nm.norm() * (1 + 1e-12));
+    if (o2.tau_Nm.norm() < 0.99 * o1.tau_Nm.norm()) ++strictly_lower;
+  }
+  std::printf("Stage II lowered ||tau|| by more than 1%% in %d of 40 cases\n", strictly_lower);
+  EXPECT_GT(strictly_lower, 0);
+}
+
+TEST_F(TwoStage, MatchesNoSlipIdOnHighFrictionWhenConsistent) {
+  // From rest (v = 0, so velocity- and acceleration-level contact conditions coincide) with
+  // contact-consistent q̈_des and μ high enough never to bind. With three or four feet the
+  // contacts fix the whole base motion: both methods give the same accelerations. Two feet
+  // cannot resist rotation about the line between them: there the two-stage ID follows the
+  // dynamics while Mistry's decomposition picks the minimum-norm base acceleration, so only the
+  // contact-constrained parts are compared.
+  // The comparison needs a q̈_des that the contact model can produce: the no-slip answer must
+  // push (c_N ≥ 0) and stay inside the friction pyramid; other draws are skipped and counted.
+  constexpr std::array<bool, 4> kThree{true, true, false, true};
+  int compared = 0, inadmissible = 0;
+  for (const auto& stance : {kAll, kThree, kLfRh, kRfLh}) {
+    const bool determined = stance != kLfRh && stance != kRfLh;
+    for (int trial = 0; trial < 20; ++trial) {
+      std::uniform_real_distribution<double> u(-1.0, 1.0);
+      IdInput in = testing::StandingInput(&rng_, stance);
+      dynamics::Vector6d ab;
+      for (int i = 0; i < 6; ++i) ab(i) = 0.5 * u(rng_);
+      testing::MakeContactConsistent(&in, dynamics::Vector6d::Zero(), ab, &rng_);
+      in.v.setZero();
+      in.mu = {10.0, 10.0, 10.0, 10.0};
+      const auto d = Dyn(in);
+      TwoStageId two;
+      NoSlipId noslip;
+      IdOutput a, b;
+      ASSERT_EQ(two.Solve(HyqModel(), *d, in, &a), IdStatus::kOk) << Describe(a);
+      ASSERT_EQ(noslip.Solve(HyqModel(), *d, in, &b), IdStatus::kOk) << Describe(b);
+      bool admissible = true;
+      for (int f = 0; f < 4; ++f)
+        if (in.stance[f] && (b.impulses[f].normal_Ns < 0.0 ||
+                             b.impulses[f].tangent_Ns_W.lpNorm<1>() > in.mu[f] * b.impulses[f].normal_Ns))
+          admissible = false;
+      if (!admissible) {
+        ++inadmissible;
+        continue;
+      }
+      ++compared;
+      const VectorV acc_two = (a.v_star - in.v) / in.dt;
+      const VectorV acc_noslip = (b.v_star - in.v) / in.dt;
+      EXPECT_TRUE(NearRel(VectorJ(acc_two.tail<12>()), VectorJ(acc_noslip.tail<12>()), 1e-9));
+      ContactSet set;
+      ASSERT_EQ(BuildContactSet(HyqModel(), d->feet, in, 4, &set), ContactStatus::kOk);
+      for (int i = 0; i < set.count; ++i) {
+        EXPECT_LT((set.J_c[i] * acc_two).norm(), 1e-6) << "foot " << set.foot[i];
+        EXPECT_LT((set.J_c[i] * acc_noslip).norm(), 1e-6) << "foot " << set.foot[i];
+      }
+      if (determined) {
+        EXPECT_TRUE(NearRel(acc_two, acc_noslip, 1e-6));
+        EXPECT_TRUE(NearRel(acc_two.head<6>(), ab, 1e-6));
+      }
+    }
+  }
+  std::printf("compared %d consistent draws, skipped %d that need pulling or slipping contacts\n",
+              compared, inadmissible);
+  EXPECT_GE(compared, 40);
+}
+
+TEST_F(TwoStage, FrictionlessFeetGetNoTangentialImpulse) {
+  IdInput in = Consistent(kAll, 3.0);
+  in.mu = {1e-9, 1e-9, 1e-9, 1e-9};
+  const auto d = Dyn(in);
+  TwoStageId id;
+  IdOutput out;
+  ASSERT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kOk) << Describe(out);
+  for (int f = 0; f < 4; ++f) {
+    EXPECT_TRUE(out.impulses[f].active);
+    EXPECT_LE(out.impulses[f].tangent_Ns_W.norm(), 1e-8) << f;
+  }
+}
+
+TEST_F(TwoStage, OneSlipperyFootIsTheOnlyOneBounded) {
+  // push the body sideways and forwards: the feet must push tangentially
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  IdInput in = testing::StandingInput(&rng_, kAll);
+  dynamics::Vector6d ab;
+  ab << 0, 0, 0, 3.0, 2.0, 0;
+  testing::MakeContactConsistent(&in, dynamics::Vector6d::Zero(), ab, &rng_);
+  in.v.setZero();
+  in.mu = {1.0, 1.0, 0.05, 1.0};  // lh on ice
+  const auto d = Dyn(in);
+  TwoStageId id;
+  IdOutput out;
+  ASSERT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kOk) << Describe(out);
+  const auto ratio = [&](int f) {
+    return out.impulses[f].tangent_Ns_W.norm() / out.impulses[f].normal_Ns;
+  };
+  EXPECT_LE(ratio(2), 0.05 + 1e-9);
+  double max_other = std::max({ratio(0), ratio(1), ratio(3)});
+  std::printf("|c_T|/c_N: lf %.3f rf %.3f lh %.3f (mu 0.05) rh %.3f\n", ratio(0), ratio(1),
+              ratio(2), ratio(3));
+  EXPECT_GT(max_other, 0.05);
+}
+
+TEST_F(TwoStage, StageTwoRemovesChatterThroughContactChanges) {
+  // Fig. 1: contact conditions 2 → 4 → 2 → 4 → 2 feet while the body sways with all feet kept
+  // still (contact-consistent motion). Chatter = total variation Σ‖τ_k − τ_{k−1}‖ over the
+  // sequence, and the largest single jump.
+  const std::array<std::array<bool, 4>, 5> phases{kLfRh, kAll, kRfLh, kAll, kLfRh};
+  TwoStageSettings s1;
+  s1.stage2 = false;
+  TwoStageId stage1(s1), both;
+  const IdInput base = testing::StandingInput(&rng_, kAll, 0.0);
+  double tv1 = 0, tv2 = 0, jump1 = 0, jump2 = 0;
+  VectorJ prev1 = VectorJ::Zero(), prev2 = VectorJ::Zero();
+  constexpr int kPerPhase = 100;
+  for (int k = 0; k < 5 * kPerPhase; ++k) {
+    const double w = 2 * M_PI * 1.0, t = k * 1e-3;
+    IdInput in = base;
+    dynamics::Vector6d vb = dynamics::Vector6d::Zero(), ab = dynamics::Vector6d::Zero();
+    // sway: lateral and vertical body motion, the feet fixed on the ground
+    in.q(1) += 0.03 * std::sin(w * t);
+    in.q(2) += 0.02 * std::sin(2 * w * t);
+    vb(1) = 0.03 * w * std::cos(w * t);
+    vb(2) = 0.04 * w * std::cos(2 * w * t);
+    ab(1) = -0.03 * w * w * std::sin(w * t);
+    ab(2) = -0.08 * w * w * std::sin(2 * w * t);
+    std::mt19937_64 rng(1);
+    testing::MakeContactConsistent(&in, vb, ab, &rng);  // all four feet consistent
+    in.stance = phases[k / kPerPhase];
+    const auto d = Dyn(in);
+    IdOutput o1, o2;
+    ASSERT_EQ(stage1.Solve(HyqModel(), *d, in, &o1), IdStatus::kOk) << Describe(o1);
+    ASSERT_EQ(both.Solve(HyqModel(), *d, in, &o2), IdStatus::kOk) << Describe(o2);
+    if (k > 0) {
+      tv1 += (o1.tau_Nm - prev1).norm();
+      tv2 += (o2.tau_Nm - prev2).norm();
+      jump1 = std::max(jump1, (o1.tau_Nm - prev1).norm());
+      jump2 = std::max(jump2, (o2.tau_Nm - prev2).norm());
+    }
+    prev1 = o1.tau_Nm;
+    prev2 = o2.tau_Nm;
+  }
+  std::printf("chatter (total variation of tau, N m): Stage I %.1f, Stage I+II %.1f; "
+              "largest jump %.1f vs %.1f\n", tv1, tv2, jump1, jump2);
+  EXPECT_LT(tv2, 0.5 * tv1);
+}
+
+TEST_F(TwoStage, ZeroStanceIsContactFreeId) {
+  IdInput in = Consistent({false, false, false, false});
+  const auto d = Dyn(in);
+  TwoStageId id;
+  IdOutput out;
+  ASSERT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kOk) << Describe(out);
+  EXPECT_FALSE(out.stage1.ran);
+  EXPECT_EQ(id.counters().no_contact, 1u);
+  // M v̇ + h = [0; τ] with v̇ = (v* − v)/h
+  const VectorV vdot = (out.v_star - in.v) / in.dt;
+  VectorV lhs = d->M * vdot + d->bias;
+  EXPECT_LT(lhs.head<6>().norm(), 1e-9 * d->bias.norm());  // the free base receives nothing
+  EXPECT_TRUE(NearRel(VectorJ(lhs.tail<12>()), out.tau_Nm, 1e-9));
+}
+
+TEST_F(TwoStage, FallbackChainIsCountedNeverThrown) {
+  const IdInput in = Consistent(kAll);
+  const auto d = Dyn(in);
+  {  // Stage II cannot finish → Stage I's torque
+    TwoStageSettings s;
+    s.stage2_max_iterations = 0;
+    TwoStageId id(s), ref;
+    IdOutput out, out1;
+    TwoStageSettings s1;
+    s1.stage2 = false;
+    TwoStageId stage1(s1);
+    EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
+    EXPECT_EQ(out.fallback, Fallback::kStage1Torque);
+    EXPECT_EQ(id.counters().stage2_failed, 1u);
+    ASSERT_EQ(stage1.Solve(HyqModel(), *d, in, &out1), IdStatus::kOk) << Describe(out1);
+    EXPECT_TRUE(NearRel(out.tau_Nm, out1.tau_Nm, 1e-12));
+  }
+  {  // Stage I cannot finish → contact-free ID
+    TwoStageSettings s;
+    s.max_iterations = 0;
+    TwoStageId id(s);
+    IdOutput out;
+    EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
+    EXPECT_EQ(out.fallback, Fallback::kContactFreeId);
+    EXPECT_EQ(id.counters().stage1_failed, 1u);
+    EXPECT_TRUE(NearRel(out.tau_Nm, ContactFreeId(*d, in.qdd_des), 1e-12));
+  }
+  {  // nothing usable → the caller's safety controller
+    IdInput bad = in;
+    bad.qdd_des(3) = std::nan("");
+    TwoStageId id;
+    IdOutput out;
+    EXPECT_EQ(id.Solve(HyqModel(), *d, bad, &out), IdStatus::kBadInput);
+    EXPECT_EQ(out.fallback, Fallback::kSafety);
+    EXPECT_EQ(id.counters().bad_input, 1u);
+    EXPECT_EQ(out.tau_Nm, VectorJ::Zero());
+    bad = in;
+    bad.normal_W[0].setZero();
+    EXPECT_EQ(id.Solve(HyqModel(), *d, bad, &out), IdStatus::kBadInput);
+    bad = in;
+    bad.mu[1] = -0.5;
+    EXPECT_EQ(id.Solve(HyqModel(), *d, bad, &out), IdStatus::kBadInput);
+  }
+}
+
+TEST_F(TwoStage, NoSlipIdSatisfiesItsEquations) {
+  // M v̇ + h = Sᵀτ + J_cᵀ λ (λ = impulse / h) and J_c v̇ + J̇_c v = 0. With two feet the base
+  // rotation about the support line is unconstrained and Mistry's min-norm v̇ need not be
+  // dynamically feasible: there only the joint rows and the contact rows are exact.
+  for (const auto& stance : {kAll, std::array<bool, 4>{true, true, false, true}, kLfRh}) {
+    for (int trial = 0; trial < 10; ++trial) {
+      const IdInput in = Consistent(stance);
+      const auto d = Dyn(in);
+      NoSlipId id;
+      IdOutput out;
+      ASSERT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kOk) << Describe(out);
+      const VectorV vdot = (out.v_star - in.v) / in.dt;
+      VectorV rhs = GeneralizedImpulse(*d, in, out) / in.dt;
+      rhs.tail<12>() += out.tau_Nm;
+      const VectorV lhs = d->M * vdot + d->bias;
+      EXPECT_TRUE(NearRel(VectorJ(lhs.tail<12>()), VectorJ(rhs.tail<12>()), 1e-8));
+      if (stance != kLfRh) {
+        EXPECT_TRUE(NearRel(lhs, rhs, 1e-8));
+      }
+      ContactSet set;
+      ASSERT_EQ(BuildContactSet(HyqModel(), d->feet, in, 4, &set), ContactStatus::kOk);
+      for (int i = 0; i < set.count; ++i)
+        EXPECT_LT((set.J_c[i] * vdot + set.Jdot_c_v[i]).norm(), 1e-8);
+    }
+  }
+}
+
+TEST_F(TwoStage, NoHeapInAnyControllerAfterWarmup) {
+  HYQ_REQUIRE_HEAP_HOOKS();
+  ControllerConfig cfg;
+  cfg.feedback.kp_acc.setConstant(100.0);
+  cfg.feedback.kd_acc.setConstant(20.0);
+  cfg.pid.kp.setConstant(300.0);
+  cfg.pid.kd.setConstant(10.0);
+  Controller ctl(HyqModel(), cfg);
+  JointReference ref;
+  ref.q = HyqModel().q_standing;
+  ContactEnvironment env;
+  const IdInput a = Consistent(kAll), b = Consistent(kLfRh);
+  const auto da = Dyn(a), db = Dyn(b);
+  IdOutput out;
+  for (auto kind : {ControllerKind::kTwoStageId, ControllerKind::kStage1Id,
+                    ControllerKind::kNoSlipId, ControllerKind::kPid}) {
+    ctl.SetKind(kind);
+    ref.stance = kAll;
+    (void)ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &out);  // warm-up
+    ref.stance = kLfRh;
+    (void)ctl.Compute(*db, b.q, b.v, ref, env, 1e-3, &out);
+    testing::NoHeapGuard guard;
+    for (int k = 0; k < 5; ++k) {
+      ref.stance = kAll;
+      (void)ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &out);
+      ref.stance = kLfRh;
+      (void)ctl.Compute(*db, b.q, b.v, ref, env, 1e-3, &out);
+      ref.stance = {false, false, false, false};
+      (void)ctl.Compute(*db, b.q, b.v, ref, env, 1e-3, &out);
+    }
+    EXPECT_EQ(guard.allocations(), 0u) << ToString(kind);
+  }
+}
+
+TEST(Pid, AntiWindupAndLimits) {
+  PidGains g;
+  g.kp.setConstant(100.0);
+  g.ki.setConstant(1000.0);
+  g.kd.setConstant(1.0);
+  g.i_limit.setConstant(20.0);
+  VectorJ limit = VectorJ::Constant(150.0);
+  PidController pid(g, limit);
+  VectorJ q = VectorJ::Zero(), qd = VectorJ::Zero(), ref = VectorJ::Constant(0.1);
+  VectorJ tau;
+  for (int k = 0; k < 1000; ++k) tau = pid.Compute(q, qd, ref, qd, 1e-3);
+  EXPECT_NEAR(tau(0), 100.0 * 0.1 + 20.0, 1e-9);  // integral clamped at i_limit
+  ref.setConstant(10.0);                            // a huge error saturates the output
+  tau = pid.Compute(q, qd, ref, qd, 1e-3);
+  EXPECT_DOUBLE_EQ(tau(0), 150.0);
+  pid.Reset();
+  g.i_limit.setConstant(1000.0);
+  pid.set_gains(g);
+  for (int k = 0; k < 1000; ++k) tau = pid.Compute(q, qd, ref, qd, 1e-3);
+  EXPECT_DOUBLE_EQ(pid.integral()(0), 0.0);  // saturated along e: no integration
+}
+
+}  // namespace
+}  // namespace hyq::servo
