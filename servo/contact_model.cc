@@ -4,14 +4,16 @@
 
 namespace hyq::servo {
 
-Eigen::Vector3d ContactSet::Direction(int i, int k) const noexcept {
-  const double a = 2.0 * M_PI * k / tangents;
-  return std::cos(a) * t1_W[i] + std::sin(a) * t2_W[i];
-}
-
 ContactStatus BuildContactSet(const dynamics::Model& model, const dynamics::FootKinematics& feet,
                               const IdInput& in, int tangents, ContactSet* out) noexcept {
   if (tangents < 1 || tangents > kMaxTangents) return ContactStatus::kBadTangents;
+  if (out->tangents != tangents || out->cos_k[0] != 1.0) {
+    for (int k = 0; k < tangents; ++k) {
+      const double a = 2.0 * M_PI * k / tangents;
+      out->cos_k[k] = std::cos(a);
+      out->sin_k[k] = std::sin(a);
+    }
+  }
   out->tangents = tangents;
   out->count = 0;
   for (int f = 0; f < kNumFeet; ++f) {

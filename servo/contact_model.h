@@ -30,12 +30,15 @@ struct ContactSet {
   std::array<dynamics::FootJacobian, kMaxContacts> J_c;  // contact point Jacobians
   std::array<Eigen::Vector3d, kMaxContacts> Jdot_c_v;
   ContactMatrix R;      // [N D], 18 × n(1 + r)
+  std::array<double, kMaxTangents> cos_k{}, sin_k{};  // cos(2πk/r), sin(2πk/r)
 
   int num_impulses() const noexcept { return count * (1 + tangents); }
   int NormalIndex(int i) const noexcept { return i; }
   int TangentIndex(int i, int k) const noexcept { return count + tangents * i + k; }
   /// d_ik = cos(2πk/r) t1 + sin(2πk/r) t2
-  Eigen::Vector3d Direction(int i, int k) const noexcept;
+  Eigen::Vector3d Direction(int i, int k) const noexcept {
+    return cos_k[k] * t1_W[i] + sin_k[k] * t2_W[i];
+  }
 };
 
 enum class [[nodiscard]] ContactStatus : std::uint8_t { kOk, kBadNormal, kBadFriction, kBadTangents };

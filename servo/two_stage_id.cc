@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include <Eigen/QR>
+#include <Eigen/SVD>
 
 #include "servo/contact_free_id.h"
 
@@ -57,8 +58,16 @@ const char* ToString(IdStatus s) noexcept {
   return "unknown";
 }
 
-TwoStageId::TwoStageId(const TwoStageSettings& settings)
-    : settings_(settings) {}
+TwoStageId::TwoStageId(const TwoStageSettings& settings) : settings_(settings) {
+  // combinations of the r tangent directions d_k = (cos θ_k, sin θ_k) that sum to zero: the
+  // null space of the 2 × r matrix [cos; sin], orthonormal (configuration time, may allocate)
+  const int r = std::clamp(settings_.tangent_directions, 1, kMaxTangents);
+  Eigen::MatrixXd T(2, r);
+  for (int k = 0; k < r; ++k) T.col(k) << std::cos(2 * M_PI * k / r), std::sin(2 * M_PI * k / r);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(T, Eigen::ComputeFullV);
+  const int rank = static_cast<int>((svd.singularValues().array() > 1e-9).count());
+  tangent_null_ = svd.matrixV().rightCols(r - rank);
+}
 
 void TwoStageId::Reset() noexcept { have_last_ = false; }
 
@@ -145,17 +154,19 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
   v_star_q_ = in.v.tail<kJ>() + h * in.qdd_des;  // (5)
 
   // Z = A⁻¹ R_b (21),  p = j − A⁻¹B (v*_q − k) (22),  G = R_q − (A⁻¹B)ᵀ R_b  (19)
-  Z_.noalias() = dyn.inv.A_inv * R_b;
+  Z_.noalias() = dyn.inv.A_inv.lazyProduct(R_b);
   p_ = j;
   p_.noalias() -= dyn.inv.A_inv_B * (v_star_q_ - k_);
   G_ = R_q;
-  G_.noalias() -= dyn.inv.A_inv_B.transpose() * R_b;
+  G_.noalias() -= dyn.inv.A_inv_B.transpose().lazyProduct(R_b);
 
   // (27): H = ZᵀAZ = (L⁻¹R_b)ᵀ(L⁻¹R_b) with A = L Lᵀ (exactly symmetric, PSD by construction)
   p1_.Resize(nz, 2 * nc);
-  Eigen::Matrix<double, kB, Eigen::Dynamic, Eigen::ColMajor, kB, kMaxImpulses> Y = R_b;
-  dyn.factor.llt_A.matrixL().solveInPlace(Y);
-  p1_.H.noalias() = Y.transpose() * Y;
+  dynamics::Matrix6d L_inv = dynamics::Matrix6d::Identity();
+  dyn.factor.llt_A.matrixL().solveInPlace(L_inv);
+  const Eigen::Matrix<double, kB, Eigen::Dynamic, Eigen::ColMajor, kB, kMaxImpulses> Y =
+      L_inv.lazyProduct(R_b);
+  p1_.H.noalias() = Y.transpose().lazyProduct(Y);
   if (settings_.objective == StageOneObjective::kKineticEnergy) {
     // g = ZᵀA p + ZᵀB v*_q = R_bᵀ (p + A⁻¹B v*_q)   (27 as printed)
     dynamics::Vector6d pg = p_;
@@ -185,24 +196,18 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
 bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
   const int nz = set_.num_impulses();
   const int nc = set_.count;
-  const auto R_b = set_.R.topRows<kB>();
   const auto z = s1_.x.head(nz);
 
-  // P = null(Z) = null(R_b): the last nz − rank columns of Q in R_bᵀ Π = Q [U; 0]
-  qr_.setThreshold(settings_.null_space_tolerance);
-  qr_.compute(R_b.transpose());
-  null_dim_ = nz - static_cast<int>(qr_.rank());
-  if (null_dim_ == 0) {
+  if (!BuildNullSpace()) {
     out->stage2 = {false, qp::Status::kOptimal, 0.5 * out->tau_Nm.squaredNorm(), 0, 0.0};
-    return true;
+    return true;  // nothing to redistribute: Stage I's answer is the only one
   }
-  Q_ = qr_.householderQ();
-  const auto P = Q_.rightCols(null_dim_);
+  const auto P = P_.leftCols(null_dim_);
 
   // min ½ ‖h τ_I − G P w‖² (h² × eq 7, same minimiser) s.t. z + P w ≥ 0, friction rows (8)
-  GP_.noalias() = G_ * P;
+  GP_.noalias() = G_.lazyProduct(P);
   p2_.Resize(null_dim_, nz + nc);
-  p2_.H.noalias() = GP_.transpose() * GP_;
+  p2_.H.noalias() = GP_.transpose().lazyProduct(GP_);
   p2_.g.noalias() = -(GP_.transpose() * (h * out->tau_Nm));
   // w = 0 must be exactly feasible: Stage I's z meets z ≥ 0 and the friction rows only to the
   // solver's tolerance, so the right-hand sides are clamped at 0
@@ -234,6 +239,43 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
   z2.noalias() += P * w;
   ImpulsesFromZ(set_, z2, &out->impulses);
   out->stage2.objective = 0.5 * out->tau_Nm.squaredNorm();
+  return true;
+}
+
+bool TwoStageId::BuildNullSpace() noexcept {
+  const int nc = set_.count;
+  const int r = set_.tangents;
+  const int nz = set_.num_impulses();
+  // internal forces: F with Σ_i J_c,i,bᵀ f_i = 0, from the QR of W ᵀ = [J_c,1,b; …; J_c,n,b]
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor, kMaxForceRows, 6> Wt(3 * nc, 6);
+  for (int i = 0; i < nc; ++i) Wt.middleRows<3>(3 * i) = set_.J_c[i].leftCols<kB>();
+  qr_.setThreshold(settings_.null_space_tolerance);
+  qr_.compute(Wt);
+  const int internal = 3 * nc - static_cast<int>(qr_.rank());
+  const int cancelling = static_cast<int>(tangent_null_.cols());
+  // with fewer than three directions a tangent force cannot always be written in them
+  const bool liftable = r >= 3;
+  null_dim_ = (liftable ? internal : 0) + nc * cancelling;
+  if (null_dim_ == 0) return false;
+  P_.setZero(nz, null_dim_);
+  int col = 0;
+  if (liftable && internal > 0) {
+    Qw_ = qr_.householderQ();
+    // f_i = a n + b t1 + c t2 lifts to z_N = a, z_D,k = (2/r)(b cos θ_k + c sin θ_k)
+    for (int j = 0; j < internal; ++j, ++col) {
+      const auto f = Qw_.col(3 * nc - internal + j);
+      for (int i = 0; i < nc; ++i) {
+        const Eigen::Vector3d fi = f.segment<3>(3 * i);
+        P_(set_.NormalIndex(i), col) = set_.normal_W[i].dot(fi);
+        const double b = set_.t1_W[i].dot(fi), c = set_.t2_W[i].dot(fi);
+        for (int k = 0; k < r; ++k)
+          P_(set_.TangentIndex(i, k), col) = 2.0 / r * (b * set_.cos_k[k] + c * set_.sin_k[k]);
+      }
+    }
+  }
+  for (int i = 0; i < nc; ++i)
+    for (int j = 0; j < cancelling; ++j, ++col)
+      for (int k = 0; k < r; ++k) P_(set_.TangentIndex(i, k), col) = tangent_null_(k, j);
   return true;
 }
 

@@ -63,7 +63,7 @@ struct TwoStageSettings {
   int stage2_max_iterations = 200;
   /// Wall-clock budget per QP (none by default; the servo loop sets one).
   std::optional<std::chrono::nanoseconds> time_budget;
-  double null_space_tolerance = 1e-9;  // relative, rank decision for null(R_b)
+  double null_space_tolerance = 1e-9;  // relative, rank decision for the internal forces
 };
 
 enum class [[nodiscard]] IdStatus : std::uint8_t { kOk, kFallback, kBadInput };
@@ -111,11 +111,19 @@ class TwoStageId {
   qp::Solution s1_;
   qp::Solver solver1_;
 
-  // Stage II data: Q of the QR of R_bᵀ; its last null_dim_ columns span null(R_b)
-  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxImpulses,
-                kMaxImpulses> Q_;
+  // Stage II data. null(R_b) = lifted internal forces (null of the 6 × 3n base-wrench map,
+  // from a QR of its transpose) + per contact the r − 2 combinations of tangent directions that
+  // cancel (fixed for a given r: tangent_null_)
+  static constexpr int kMaxForceRows = 3 * kMaxContacts;
   Eigen::ColPivHouseholderQR<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor,
-                                           kMaxImpulses, 6>> qr_;
+                                           kMaxForceRows, 6>> qr_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxForceRows,
+                kMaxForceRows> Qw_;
+  Eigen::Matrix<double, kMaxTangents, Eigen::Dynamic, Eigen::ColMajor, kMaxTangents,
+                kMaxTangents> tangent_null_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxImpulses,
+                kMaxImpulses> P_;
+  bool BuildNullSpace() noexcept;
   Eigen::Matrix<double, dynamics::kNumJoints, Eigen::Dynamic, Eigen::ColMajor,
                 dynamics::kNumJoints, kMaxImpulses> GP_;
   int null_dim_ = 0;

@@ -1,0 +1,143 @@
+// hyq-id: solves ID problem files (servo/id_record.h) line by line.
+#include <chrono>
+#include <iostream>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <string_view>
+
+#include "dynamics/cycle_dynamics.h"
+#include "dynamics/urdf_loader.h"
+#include "servo/id_record.h"
+
+namespace {
+
+using namespace hyq;
+
+constexpr std::string_view kUsage =
+    "usage: hyq-id [--urdf FILE] [--tangents R] IN.jsonl OUT.jsonl\n"
+    "\n"
+    "Solves each line of IN.jsonl, an inverse-dynamics problem\n"
+    "  {\"q\": [19], \"v\": [18], \"qdd_des\": [12], \"stance\": [4 bools], \"mu\": [4],\n"
+    "   \"normal\": [[3] x 4] (optional), \"h\": s, \"controller\": \"two_stage\"|\"stage1\"|\"noslip\"}\n"
+    "and writes it to OUT.jsonl with \"result\" added (torques in N m, impulses in N s, stage\n"
+    "statuses, kinetic energy, fallback). A bad line is reported on stderr with its line number\n"
+    "and skipped; the others are still solved. Consecutive lines warm-start the QPs, as in the\n"
+    "servo loop. OUT.jsonl may be - for standard output.\n"
+    "\n"
+    "  --urdf FILE    the robot model (default: " HYQ_DEFAULT_URDF ")\n"
+    "  --tangents R   friction directions per contact, 1..8 (default 4)\n"
+    "  --help         this text\n"
+    "\n"
+    "exit status: 0 all lines solved, 1 some lines bad or a solve fell back, 2 usage or I/O error\n";
+
+[[noreturn]] void Usage(const std::string& msg) {
+  std::fprintf(stderr, "hyq-id: %s\n\n%s", msg.c_str(), kUsage.data());
+  std::exit(2);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string urdf = HYQ_DEFAULT_URDF, in_path, out_path;
+  int tangents = 4;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::fputs(kUsage.data(), stdout);
+      return 0;
+    } else if (a == "--urdf" && i + 1 < argc) {
+      urdf = argv[++i];
+    } else if (a == "--tangents" && i + 1 < argc) {
+      char* end = nullptr;
+      const long r = std::strtol(argv[++i], &end, 10);
+      if (*end != '\0' || r < 1 || r > servo::kMaxTangents)
+        Usage(std::string("--tangents: expected an integer from 1 to 8, found '") + argv[i] + "'");
+      tangents = static_cast<int>(r);
+    } else if (!a.empty() && a[0] == '-' && a != "-") {
+      Usage("unknown option '" + std::string(a) + "'");
+    } else if (in_path.empty()) {
+      in_path = a;
+    } else if (out_path.empty()) {
+      out_path = a;
+    } else {
+      Usage("expected two files, found a third: '" + std::string(a) + "'");
+    }
+  }
+  if (out_path.empty()) Usage("expected IN.jsonl and OUT.jsonl");
+
+  dynamics::Model model;
+  try {
+    model = dynamics::LoadModelFromUrdf(urdf);
+  } catch (const dynamics::ModelError& e) {
+    std::fprintf(stderr, "hyq-id: %s\n", e.what());
+    return 2;
+  }
+  std::ifstream in(in_path);
+  if (!in) {
+    std::fprintf(stderr, "hyq-id: %s: cannot open for reading\n", in_path.c_str());
+    return 2;
+  }
+  std::ofstream out_file;
+  if (out_path != "-") {
+    out_file.open(out_path);
+    if (!out_file) {
+      std::fprintf(stderr, "hyq-id: %s: cannot open for writing\n", out_path.c_str());
+      return 2;
+    }
+  }
+  std::ostream& out = out_path == "-" ? std::cout : out_file;
+
+  servo::TwoStageSettings two;
+  two.tangent_directions = tangents;
+  servo::TwoStageSettings one = two;
+  one.stage2 = false;
+  servo::TwoStageId two_stage(two), stage1(one);
+  servo::NoSlipId noslip;
+  auto dyn = std::make_unique<dynamics::CycleDynamics>();
+
+  long line_no = 0, solved = 0, bad = 0, fallbacks = 0;
+  std::string line;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
+    servo::IdRecord rec;
+    try {
+      rec = servo::ParseIdRecord(line);
+    } catch (const servo::IdRecordError& e) {
+      std::fprintf(stderr, "%s:%ld: %s\n", in_path.c_str(), line_no, e.what());
+      ++bad;
+      continue;
+    }
+    if (dynamics::ComputeCycleDynamics(model, rec.input.q, rec.input.v, dyn.get()) !=
+        dynamics::DynamicsStatus::kOk) {
+      std::fprintf(stderr, "%s:%ld: the state (q, v) is not usable by the dynamics\n",
+                   in_path.c_str(), line_no);
+      ++bad;
+      continue;
+    }
+    servo::IdOutput result;
+    servo::IdStatus st = servo::IdStatus::kBadInput;
+    switch (rec.controller) {
+      case servo::ControllerKind::kTwoStageId: st = two_stage.Solve(model, *dyn, rec.input, &result); break;
+      case servo::ControllerKind::kStage1Id: st = stage1.Solve(model, *dyn, rec.input, &result); break;
+      case servo::ControllerKind::kNoSlipId: st = noslip.Solve(model, *dyn, rec.input, &result); break;
+      case servo::ControllerKind::kPid: break;
+    }
+    if (st != servo::IdStatus::kOk) {
+      ++fallbacks;
+      std::fprintf(stderr, "%s:%ld: %s (fallback: %s)\n", in_path.c_str(), line_no,
+                   servo::ToString(st), servo::ToString(result.fallback));
+    }
+    out << servo::FormatIdRecord(rec, &result) << '\n';
+    ++solved;
+    if (solved % 10000 == 0) std::fprintf(stderr, "\rhyq-id: %ld lines solved", solved);
+  }
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  std::fprintf(stderr, "%shyq-id: %ld solved (%ld fell back), %ld bad line(s), %.3f s\n",
+               solved >= 10000 ? "\n" : "", solved, fallbacks, bad, s);
+  return (bad > 0 || fallbacks > 0) ? 1 : 0;
+}
