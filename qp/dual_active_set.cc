@@ -15,20 +15,23 @@ constexpr int kMaxDependentEntries = 2;
 // A Farkas certificate is accepted when ‖Cᵀ w‖ is below this (relative, see CertificateResidual).
 constexpr double kCertificateTolerance = 1e-12;
 
-// z = L⁻¹ z in place, z zero above `first`
+// z = L⁻¹ z in place, z zero above `first`: rows of L⁻¹ times z, each independent
 void ForwardChol(const Workspace& ws, double* z, int first) {
-  for (int i = first; i < ws.n; ++i) {
-    const double* Li = &ws.chol[i * kN];
-    z[i] = (z[i] - Dot(Li + first, z + first, i - first)) / Li[i];
-  }
+  double t[kN];
+  const int n = ws.n;
+  for (int i = first; i < n; ++i) t[i] = z[i];
+  for (int i = first; i < n; ++i) z[i] = Dot(&ws.linv[i * kN] + first, t + first, i - first + 1);
 }
 
-// z = L⁻ᵀ z in place: z_i = (z_i − Σ_{k>i} L(k, i) z_k) / L(i, i), column i of L contiguous
+// z = L⁻ᵀ z in place: z = Σ_i z_i (row i of L⁻¹)
 void BackwardChol(const Workspace& ws, double* z) {
+  double t[kN];
   const int n = ws.n;
-  for (int i = n - 1; i >= 0; --i) {
-    const double* Ci = &ws.cholt[i * kN];
-    z[i] = (z[i] - Dot(Ci + i + 1, z + i + 1, n - i - 1)) / Ci[i];
+  for (int i = 0; i < n; ++i) t[i] = z[i], z[i] = 0.0;
+  for (int i = 0; i < n; ++i) {
+    const double ti = t[i];
+    const double* row = &ws.linv[i * kN];
+    for (int j = 0; j <= i; ++j) z[j] += ti * row[j];
   }
 }
 
@@ -36,9 +39,9 @@ void BackwardChol(const Workspace& ws, double* z) {
 void RowVector(const Workspace& ws, int row, double* m) {
   const int n = ws.n;
   if (row < n) {
-    for (int j = 0; j < n; ++j) m[j] = 0.0;
-    m[row] = 1.0;
-    ForwardChol(ws, m, row);
+    // L⁻¹ e_row is column `row` of L⁻¹
+    for (int j = 0; j < row; ++j) m[j] = 0.0;
+    for (int j = row; j < n; ++j) m[j] = ws.linv[j * kN + row];
   } else {
     const Problem& p = *ws.problem;
     for (int j = 0; j < n; ++j) m[j] = p.A(row - n, j);
@@ -70,6 +73,7 @@ void Remove(Workspace* ws, int j) {
     const double beta = pz * a / dn;
     a = ws->dw[c] * a / dn;
     ws->dw[c] = dn;
+    ws->dw_inv[c] = 1.0 / dn;
     for (int r = c + 1; r < nw; ++r) {
       z[r] -= pz * lw[r * kN + c];
       lw[r * kN + c] += beta * z[r];
@@ -83,6 +87,7 @@ void Remove(Workspace* ws, int j) {
     for (int c = j + 1; c < r; ++c) dst[c - 1] = src[c];
     dst[r - 1] = 1.0;
     ws->dw[r - 1] = ws->dw[r];
+    ws->dw_inv[r - 1] = ws->dw_inv[r];
     ws->w_row[r - 1] = ws->w_row[r];
     ws->w_sign[r - 1] = ws->w_sign[r];
     ws->lambda[r - 1] = ws->lambda[r];
@@ -112,7 +117,7 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
     const double* Lp = &ws->lw[p * kN];
     const double s = r[p] - Dot(Lp, r, p);
     r[p] = s;
-    l[p] = s / ws->dw[p];
+    l[p] = s * ws->dw_inv[p];
     pivot -= s * l[p];
   }
   if (nw < n && pivot > tol * mm && mm > 0.0) {
@@ -120,6 +125,7 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
     for (int q = 0; q < nw; ++q) Lrow[q] = l[q];
     Lrow[nw] = 1.0;
     ws->dw[nw] = pivot;
+    ws->dw_inv[nw] = 1.0 / pivot;
     for (int k = 0; k < n; ++k) ws->mw[nw * kN + k] = m[k];
     ws->w_row[nw] = row;
     ws->w_sign[nw] = static_cast<std::int8_t>(sign);
@@ -157,7 +163,7 @@ void RefineCertificate(Workspace* ws) {
     const double* Lq = &ws->lw[q * kN];
     y[q] = -ws->w_sign[q] * Dot(&ws->mw[q * kN], r, n) - Dot(Lq, y, q);
   }
-  for (int q = 0; q < nw; ++q) y[q] /= ws->dw[q];
+  for (int q = 0; q < nw; ++q) y[q] *= ws->dw_inv[q];
   for (int q = nw - 1; q >= 0; --q) {
     const double* Lq = &ws->lw[q * kN];
     for (int k = 0; k < q; ++k) y[k] -= Lq[k] * y[q];
@@ -316,6 +322,7 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   const Problem& p = *ws->problem;
   const int n = ws->n;
   const double* h = p.H.data();
+  // H + εI = L Lᵀ, row by row (Cholesky–Banachiewicz)
   for (int i = 0; i < n; ++i) {
     double* Li = &ws->chol[i * kN];
     for (int j = 0; j <= i; ++j) {
@@ -325,13 +332,22 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
         s += eps;
         if (!(s > relative_floor * (p.H(i, i) + eps)) || !(s > 0.0)) return false;
         Li[i] = std::sqrt(s);
+        ws->chol_inv_diag[i] = 1.0 / Li[i];
       } else {
-        Li[j] = s / Lj[j];
+        Li[j] = s * ws->chol_inv_diag[j];
       }
     }
   }
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k <= i; ++k) ws->cholt[k * kN + i] = ws->chol[i * kN + k];
+  // L⁻¹ column by column: X(j, j) = 1 / L(j, j), X(i, j) = −L(i, j..i−1) X(j..i−1, j) / L(i, i)
+  double t[kN];
+  for (int j = 0; j < n; ++j) {
+    t[j] = ws->chol_inv_diag[j];
+    ws->linv[j * kN + j] = t[j];
+    for (int i = j + 1; i < n; ++i) {
+      t[i] = -Dot(&ws->chol[i * kN] + j, t + j, i - j) * ws->chol_inv_diag[i];
+      ws->linv[i * kN + j] = t[i];
+    }
+  }
   return true;
 }
 
@@ -339,6 +355,8 @@ void RefreshRightHandSides(Workspace* ws) noexcept {
   for (int p = 0; p < ws->nw; ++p)
     ws->d[p] = RightHandSide(*ws, ws->w_row[p], ws->w_sign[p], &ws->mw[p * kN]);
 }
+
+void RemoveFromWorkingSet(Workspace* ws, int j) noexcept { Remove(ws, j); }
 
 bool AppendIfIndependent(Workspace* ws, int row, int sign, double lambda,
                          double dependence_tolerance) noexcept {
@@ -424,7 +442,7 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
     const double* Lq = &ws->lw[q * kN];
     dl[q] = -dd[q] - Dot(Lq, dl, q);
   }
-  for (int q = 0; q < nw; ++q) dl[q] /= ws->dw[q];
+  for (int q = 0; q < nw; ++q) dl[q] *= ws->dw_inv[q];
   for (int q = nw - 1; q >= 0; --q) {
     const double* Lq = &ws->lw[q * kN];
     for (int k = 0; k < q; ++k) dl[k] -= Lq[k] * dl[q];
@@ -461,7 +479,7 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
       const double* Lp = &ws->lw[p * kN];
       ls[p] = -ws->d[p] - Dot(Lp, ls, p);
     }
-    for (int p = 0; p < nw; ++p) ls[p] /= ws->dw[p];
+    for (int p = 0; p < nw; ++p) ls[p] *= ws->dw_inv[p];
     for (int p = nw - 1; p >= 0; --p) {
       const double* Lp = &ws->lw[p * kN];
       const double lp = ls[p];

@@ -47,6 +47,9 @@ void RefreshRightHandSides(Workspace* ws) noexcept;
 bool AppendIfIndependent(Workspace* ws, int row, int sign, double lambda,
                          double dependence_tolerance) noexcept;
 
+/// Takes position j out of W (LDLᵀ downdate).
+void RemoveFromWorkingSet(Workspace* ws, int j) noexcept;
+
 /// Recomputes every m_p and the LDLᵀ factors of W after L changed; dependent rows are dropped.
 void RebuildWorkingSet(Workspace* ws, double dependence_tolerance) noexcept;
 

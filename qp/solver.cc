@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "qp/dual_active_set.h"
 #include "qp/workspace.h"
@@ -40,10 +41,7 @@ void Linearise(Workspace* ws) {
   }
   internal::MultiplyA(p, ws->xk.data(), ws->cx.data() + n);
   for (int i = 0; i < n; ++i) ws->q[i] += internal::Dot(p.H.data() + i * n, ws->xk.data(), n);
-  for (int i = 0; i < n; ++i) {
-    const double* Li = &ws->chol[i * kN];
-    ws->v[i] = (ws->q[i] - internal::Dot(Li, ws->v.data(), i)) / Li[i];
-  }
+  for (int i = 0; i < n; ++i) ws->v[i] = internal::Dot(&ws->linv[i * kN], ws->q.data(), i + 1);
 }
 
 // x, multipliers and active set from x_k + δ and W
@@ -167,17 +165,19 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
   const int n = static_cast<int>(p.H.rows()), m = static_cast<int>(p.A.rows());
   const bool warm = budget.warm_start && sol->x.size() == n && sol->y_bounds.size() == n &&
                     sol->y_constraints.size() == m && sol->status != Status::kBadInput;
-  // keep the warm start (previous x and signed multipliers per row) before *sol is overwritten
+  // keep the warm start (previous x, side and signed multiplier per row) before *sol is reset
   if (warm) {
+    auto side_of = [](Active a) -> std::int8_t {
+      return a == Active::kUpper ? 1 : a == Active::kLower ? -1 : a == Active::kEquality ? 2 : 0;
+    };
     for (int i = 0; i < n; ++i) {
       ws.xk[i] = sol->x(i);
-      ws.cert[i] = sol->active_bounds[i] == Active::kInactive ? 0.0 : sol->y_bounds(i);
-      ws.is_eq[i] = static_cast<std::uint8_t>(sol->active_bounds[i]);
+      ws.warm_side[i] = side_of(sol->active_bounds[i]);
+      ws.warm_y[i] = sol->y_bounds(i);
     }
     for (int k = 0; k < m; ++k) {
-      ws.cert[n + k] =
-          sol->active_constraints[k] == Active::kInactive ? 0.0 : sol->y_constraints(k);
-      ws.is_eq[n + k] = static_cast<std::uint8_t>(sol->active_constraints[k]);
+      ws.warm_side[n + k] = side_of(sol->active_constraints[k]);
+      ws.warm_y[n + k] = sol->y_constraints(k);
     }
   }
   SizeSolution(sol, n, m);
@@ -193,56 +193,69 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
   };
   if (!IsWellFormed(p)) return finish(Status::kBadInput);
 
+  // a warm start with the very same H and A keeps L and the working set of the last solve
+  const bool same_matrices =
+      warm && ws.factor_valid && ws.factor_n == n && ws.factor_m == m &&
+      std::memcmp(ws.h_copy.data(), p.H.data(), sizeof(double) * n * n) == 0 &&
+      (m == 0 || std::memcmp(ws.a_copy.data(), p.A.data(), sizeof(double) * m * n) == 0);
+
   ws.problem = &p;
   ws.n = n;
   ws.m = m;
   ws.rows = n + m;
-  // warm-start side per row: +1 upper, −1 lower, 0 none (from the saved Active codes)
-  std::array<std::int8_t, kMaxRows> side{};
-  if (warm) {
-    for (int i = 0; i < ws.rows; ++i) {
-      const auto a = static_cast<Active>(static_cast<std::int8_t>(ws.is_eq[i]));
-      side[i] = a == Active::kUpper ? 1 : a == Active::kLower ? -1 : a == Active::kEquality ? 2 : 0;
-    }
-  }
-  for (int i = 0; i < n; ++i) {
-    ws.lo[i] = p.lb(i);
-    ws.hi[i] = p.ub(i);
-  }
-  for (int k = 0; k < m; ++k) {
-    ws.lo[n + k] = p.lbA(k);
-    ws.hi[n + k] = p.ubA(k);
+  bool equalities_changed = false;
+  for (int i = 0; i < ws.rows; ++i) {
+    const double lo = i < n ? p.lb(i) : p.lbA(i - n);
+    const double hi = i < n ? p.ub(i) : p.ubA(i - n);
+    ws.lo[i] = lo;
+    ws.hi[i] = hi;
+    const std::uint8_t eq = lo == hi;
+    equalities_changed = equalities_changed || (eq != ws.is_eq[i] && ws.pos_of[i] >= 0);
+    ws.is_eq[i] = eq;
+    ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(lo));
+    ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(hi));
   }
   ws.hmax = 0.0;
-  for (int i = 0; i < ws.rows; ++i) {
-    ws.is_eq[i] = ws.lo[i] == ws.hi[i];
-    ws.pos_of[i] = -1;
-    ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(ws.lo[i]));
-    ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(ws.hi[i]));
-  }
   for (int i = 0; i < n; ++i) ws.hmax = std::max(ws.hmax, p.H(i, i));
   // proximal centre: the previous answer, or 0, clipped into the bounds
   for (int i = 0; i < n; ++i) {
     const double x0 = warm ? ws.xk[i] : 0.0;
     ws.xk[i] = std::clamp(x0, p.lb(i), p.ub(i));
   }
-
-  // H + εI = L Lᵀ with ε = 0 when H is safely positive definite
-  ws.eps = 0.0;
-  if (!internal::FactorHessian(&ws, 0.0, kPositiveDefiniteFloor)) {
-    ws.eps = settings_.proximal_weight * (ws.hmax > 0.0 ? ws.hmax : 1.0);
-    if (!internal::FactorHessian(&ws, ws.eps, 0.0)) return finish(Status::kBadInput);
-  }
   const double eps_floor = kMinRelativeEps * (ws.hmax > 0.0 ? ws.hmax : 1.0);
 
-  Linearise(&ws);
-  ws.nw = 0;
-  if (warm) {
-    for (int i = 0; i < ws.rows; ++i) {
-      if (side[i] == 0) continue;
-      const double y = ws.cert[i];
-      const int sign = side[i] == 2 ? (y < 0.0 ? -1 : 1) : side[i];
-      if (side[i] == 2 && !ws.is_eq[i]) continue;  // was an equality, is not any more
+  const bool keep = same_matrices && !equalities_changed;
+  if (keep) {
+    // rows whose active side became infinite leave W
+    for (int q = ws.nw - 1; q >= 0; --q) {
+      const int row = ws.w_row[q];
+      const double bound = ws.w_sign[q] > 0 ? ws.hi[row] : ws.lo[row];
+      if (!std::isfinite(bound)) internal::RemoveFromWorkingSet(&ws, q);
+    }
+    Linearise(&ws);
+    internal::RefreshRightHandSides(&ws);
+  } else {
+    // H + εI = L Lᵀ with ε = 0 when H is safely positive definite
+    ws.factor_valid = false;
+    ws.eps = 0.0;
+    if (!internal::FactorHessian(&ws, 0.0, kPositiveDefiniteFloor)) {
+      ws.eps = settings_.proximal_weight * (ws.hmax > 0.0 ? ws.hmax : 1.0);
+      if (!internal::FactorHessian(&ws, ws.eps, 0.0)) return finish(Status::kBadInput);
+    }
+    std::memcpy(ws.h_copy.data(), p.H.data(), sizeof(double) * n * n);
+    if (m > 0) std::memcpy(ws.a_copy.data(), p.A.data(), sizeof(double) * m * n);
+    ws.factor_valid = true;
+    ws.factor_n = n;
+    ws.factor_m = m;
+    Linearise(&ws);
+    for (int i = 0; i < ws.rows; ++i) ws.pos_of[i] = -1;
+    ws.nw = 0;
+    for (int i = 0; warm && i < ws.rows; ++i) {
+      const int side = ws.warm_side[i];
+      if (side == 0 || (side == 2 && !ws.is_eq[i])) continue;  // (no longer an equality)
+      const double y = ws.warm_y[i];
+      const int sign = side == 2 ? (y < 0.0 ? -1 : 1) : side;
+      if (!std::isfinite(sign > 0 ? ws.hi[i] : ws.lo[i])) continue;
       internal::AppendIfIndependent(&ws, i, sign, std::max(0.0, sign * y),
                                     settings_.dependence_tolerance);
     }
