@@ -23,16 +23,12 @@ void ForwardChol(const Workspace& ws, double* z, int first) {
   for (int i = first; i < n; ++i) z[i] = Dot(&ws.linv[i * kN] + first, t + first, i - first + 1);
 }
 
-// z = L⁻ᵀ z in place: z = Σ_i z_i (row i of L⁻¹)
+// z = L⁻ᵀ z in place: z_j = (column j of L⁻¹)ᵀ z, each independent
 void BackwardChol(const Workspace& ws, double* z) {
   double t[kN];
   const int n = ws.n;
-  for (int i = 0; i < n; ++i) t[i] = z[i], z[i] = 0.0;
-  for (int i = 0; i < n; ++i) {
-    const double ti = t[i];
-    const double* row = &ws.linv[i * kN];
-    for (int j = 0; j <= i; ++j) z[j] += ti * row[j];
-  }
+  for (int i = 0; i < n; ++i) t[i] = z[i];
+  for (int j = 0; j < n; ++j) z[j] = Dot(&ws.linvt[j * kN] + j, t + j, n - j);
 }
 
 // m = L⁻¹ C_rowᵀ: a bound row is e_i, so m is zero above i
@@ -322,32 +318,47 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   const Problem& p = *ws->problem;
   const int n = ws->n;
   const double* h = p.H.data();
-  // H + εI = L Lᵀ, row by row (Cholesky–Banachiewicz)
+  double* L = ws->chol.data();  // column-major, L(i, k) = L[i + k * kN]
+  for (int j = 0; j < n; ++j)
+    for (int i = j; i < n; ++i) L[i + j * kN] = h[i + j * n];
+  // right-looking Cholesky: column k, then the rank-one update of the trailing block, whose
+  // columns are independent axpys (no chains of dependent dot products)
+  for (int k = 0; k < n; ++k) {
+    double* Lk = L + k * kN;
+    const double d = Lk[k] + eps;
+    if (!(d > relative_floor * (h[k + k * n] + eps)) || !(d > 0.0)) return false;
+    const double lkk = std::sqrt(d);
+    const double inv = 1.0 / lkk;
+    Lk[k] = lkk;
+    ws->chol_inv_diag[k] = inv;
+    for (int i = k + 1; i < n; ++i) Lk[i] *= inv;
+    for (int j = k + 1; j < n; ++j) {
+      const double ljk = Lk[j];
+      double* Lj = L + j * kN;
+      for (int i = j; i < n; ++i) Lj[i] -= Lk[i] * ljk;
+    }
+  }
+  // L⁻¹ by the same right-looking sweep on the identity: row k of X = L⁻¹ is final once scaled,
+  // then removed from the rows below it
+  double* X = ws->linv.data();  // row-major
   for (int i = 0; i < n; ++i) {
-    double* Li = &ws->chol[i * kN];
-    for (int j = 0; j <= i; ++j) {
-      const double* Lj = &ws->chol[j * kN];
-      double s = h[i + j * n] - Dot(Li, Lj, j);
-      if (i == j) {
-        s += eps;
-        if (!(s > relative_floor * (p.H(i, i) + eps)) || !(s > 0.0)) return false;
-        Li[i] = std::sqrt(s);
-        ws->chol_inv_diag[i] = 1.0 / Li[i];
-      } else {
-        Li[j] = s * ws->chol_inv_diag[j];
-      }
+    double* Xi = X + i * kN;
+    for (int c = 0; c < i; ++c) Xi[c] = 0.0;
+    Xi[i] = 1.0;
+  }
+  for (int k = 0; k < n; ++k) {
+    double* Xk = X + k * kN;
+    const double inv = ws->chol_inv_diag[k];
+    for (int c = 0; c <= k; ++c) Xk[c] *= inv;
+    const double* Lk = L + k * kN;
+    for (int i = k + 1; i < n; ++i) {
+      const double lik = Lk[i];
+      double* Xi = X + i * kN;
+      for (int c = 0; c <= k; ++c) Xi[c] -= lik * Xk[c];
     }
   }
-  // L⁻¹ column by column: X(j, j) = 1 / L(j, j), X(i, j) = −L(i, j..i−1) X(j..i−1, j) / L(i, i)
-  double t[kN];
-  for (int j = 0; j < n; ++j) {
-    t[j] = ws->chol_inv_diag[j];
-    ws->linv[j * kN + j] = t[j];
-    for (int i = j + 1; i < n; ++i) {
-      t[i] = -Dot(&ws->chol[i * kN] + j, t + j, i - j) * ws->chol_inv_diag[i];
-      ws->linv[i * kN + j] = t[i];
-    }
-  }
+  for (int i = 0; i < n; ++i)
+    for (int j = 0; j <= i; ++j) ws->linvt[j * kN + i] = X[i * kN + j];
   return true;
 }
 

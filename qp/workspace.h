@@ -45,6 +45,7 @@ struct Workspace {
   // inverse, L⁻¹ c and L⁻ᵀ c are matrix-vector products whose rows are independent, instead of
   // triangular solves whose every step waits for the previous one
   std::array<double, kN * kN> linv{};
+  std::array<double, kN * kN> linvt{};  // the same transposed: linvt[j * kN + i] = (L⁻¹)(i, j)
   std::array<double, kN> chol_inv_diag{};
   // 1 / (1 + |bound|) per row and side, to rank violations without dividing
   std::array<double, kMaxRows> lo_scale{}, hi_scale{};
