@@ -417,12 +417,9 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
   double* rx = ws->tmp.data();
   double* x = ws->tmp2.data();
   for (int i = 0; i < n; ++i) x[i] = ws->xk[i] + ws->delta[i];
-  // r_x = H x + g + ε δ + Σ s_p λ_p C_pᵀ
-  for (int i = 0; i < n; ++i) rx[i] = p.g(i) + ws->eps * ws->delta[i];
-  for (int j = 0; j < n; ++j) {
-    const double xj = x[j];
-    for (int i = 0; i < n; ++i) rx[i] += p.H(i, j) * xj;
-  }
+  // r_x = H x + g + ε δ + Σ s_p λ_p C_pᵀ   (H symmetric: row i = column i)
+  for (int i = 0; i < n; ++i)
+    rx[i] = p.g(i) + ws->eps * ws->delta[i] + Dot(p.H.data() + i * n, x, n);
   for (int q = 0; q < nw; ++q) {
     const int row = ws->w_row[q];
     const double y = ws->w_sign[q] * ws->lambda[q];
@@ -432,18 +429,15 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
       for (int j = 0; j < n; ++j) rx[j] += p.A(row - n, j) * y;
     }
   }
+  // A x for the residuals of W's rows
+  double* ax = ws->cdelta.data() + n;
+  if (ws->m > 0) MultiplyA(p, x, ax);
   // v' = L⁻¹ r_x; d'_p = s_p (−r_c,p + m_pᵀ v')
   ForwardChol(*ws, rx, 0);
   double* dd = ws->kvec.data();
   for (int q = 0; q < nw; ++q) {
     const int row = ws->w_row[q];
-    double cxq;
-    if (row < n) {
-      cxq = x[row];
-    } else {
-      cxq = 0.0;
-      for (int j = 0; j < n; ++j) cxq += p.A(row - n, j) * x[j];
-    }
+    const double cxq = row < n ? x[row] : ax[row - n];
     const double rc = cxq - SideBound(*ws, row, ws->w_sign[q]);
     dd[q] = ws->w_sign[q] * (-rc + Dot(&ws->mw[q * kN], rx, n));
   }
@@ -517,19 +511,24 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
     }
     for (int p = 0; p < nw; ++p) ws->lambda[p] = ls[p];
     ComputeStep(ws);
-    // primal step: the most violated row (relative to its bound) enters
-    int enter = -1, enter_sign = 0;
+    // primal step: the most violated row (relative to its bound) enters; branch-free scan over
+    // bounds clamped to ±1e300 (an infinite side is never violated), W and skipped rows masked
+    int enter = -1;
     double worst = limits.primal_tolerance;
     for (int i = 0; i < ws->rows; ++i) {
-      if (ws->pos_of[i] >= 0 || ws->skipped[i]) continue;
       const double value = ws->cx[i] + ws->cdelta[i];
-      if (value > ws->hi[i]) {
-        const double up = (value - ws->hi[i]) * ws->hi_scale[i];
-        if (up > worst) worst = up, enter = i, enter_sign = 1;
-      } else if (value < ws->lo[i]) {
-        const double down = (ws->lo[i] - value) * ws->lo_scale[i];
-        if (down > worst) worst = down, enter = i, enter_sign = -1;
-      }
+      const double up = (value - ws->hi_finite[i]) * ws->hi_scale[i];
+      const double down = (ws->lo_finite[i] - value) * ws->lo_scale[i];
+      double v = up > down ? up : down;
+      v = (ws->pos_of[i] >= 0 || ws->skipped[i]) ? -1.0 : v;
+      const bool better = v > worst;
+      worst = better ? v : worst;
+      enter = better ? i : enter;
+    }
+    int enter_sign = 0;
+    if (enter >= 0) {
+      const double value = ws->cx[enter] + ws->cdelta[enter];
+      enter_sign = value > ws->hi[enter] ? 1 : -1;
     }
     if (enter < 0) return InnerStatus::kOptimal;
 #ifdef QP_TRACE

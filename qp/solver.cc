@@ -225,8 +225,10 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
     const std::uint8_t eq = lo == hi;
     equalities_changed = equalities_changed || (eq != ws.is_eq[i] && ws.pos_of[i] >= 0);
     ws.is_eq[i] = eq;
-    ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(lo));
-    ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(hi));
+    ws.lo_finite[i] = std::max(lo, -1e300);
+    ws.hi_finite[i] = std::min(hi, 1e300);
+    ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(ws.lo_finite[i]));
+    ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(ws.hi_finite[i]));
   }
   ws.hmax = 0.0;
   for (int i = 0; i < n; ++i) ws.hmax = std::max(ws.hmax, p.H(i, i));

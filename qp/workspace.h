@@ -49,6 +49,7 @@ struct Workspace {
   std::array<double, kN> chol_inv_diag{};
   // 1 / (1 + |bound|) per row and side, to rank violations without dividing
   std::array<double, kMaxRows> lo_scale{}, hi_scale{};
+  std::array<double, kMaxRows> lo_finite{}, hi_finite{};  // lo, hi with ±inf as ∓1e300
 
   // proximal centre x_k, its row values C x_k, gradient q = H x_k + g, v = L⁻¹ q
   std::array<double, kN> xk{}, q{}, v{};

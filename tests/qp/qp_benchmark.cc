@@ -9,7 +9,8 @@
 //                    keeps its factorisation and working set);
 //   _WarmNewMatrices warm start, but H (and so the factorisation) changes every cycle, as in the
 //                    servo where H and A come from the dynamics of the moment.
-// Counters: max_iter is the worst iteration count seen, fail counts non-optimal answers.
+// Counters: max_iter is the worst iteration count seen (active-set changes plus outer
+// iterations), max_outer the worst proximal-iteration count, fail counts non-optimal answers.
 #include <algorithm>
 #include <random>
 #include <vector>
@@ -65,7 +66,7 @@ void Run(benchmark::State& state, bool id_shaped, Mode mode) {
   for (int b = 0; b < kBases; ++b) (void)solver.Solve(seq[b].problem, Budget{}, &sol[b]);
   Budget budget;
   budget.warm_start = mode != Mode::kCold;
-  int b = 0, t = 0, max_iter = 0, failures = 0;
+  int b = 0, t = 0, max_iter = 0, max_outer = 0, failures = 0;
   for (auto _ : state) {
     Sequence& s = seq[b];
     s.problem.g = s.g[t];
@@ -76,12 +77,14 @@ void Run(benchmark::State& state, bool id_shaped, Mode mode) {
     benchmark::DoNotOptimize(sol[b].x.data());
     failures += st != Status::kOptimal;
     max_iter = std::max(max_iter, sol[b].iterations);
+    max_outer = std::max(max_outer, sol[b].outer_iterations);
     if (++t == kCycles) {
       t = 0;
       b = (b + 1) % kBases;
     }
   }
   state.counters["max_iter"] = max_iter;
+  state.counters["max_outer"] = max_outer;
   state.counters["fail"] = failures;
 }
 
