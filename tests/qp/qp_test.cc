@@ -312,6 +312,54 @@ TEST(QpWarmStart, SameAnswerAsColdStart) {
   }
 }
 
+TEST(QpWarmStart, NewMatricesAndChangedRowsGiveTheColdAnswer) {
+  std::mt19937_64 rng(13);
+  Solver cold_solver, warm_solver;
+  for (int rep = 0; rep < 30; ++rep) {
+    Planted t = MakePlanted({.n = 15, .m = 20, .condition = 1e2, .rank = rep % 2 ? 15 : 9,
+                             .active_bounds = 3, .active_constraints = 6, .equalities = 1}, &rng);
+    Solution warm;
+    ASSERT_EQ(warm_solver.Solve(t.problem, Budget{}, &warm), Status::kOptimal);
+    Problem& p = t.problem;
+    switch (rep % 3) {
+      case 0: {  // H changes (a new factorisation, the working set rebuilt from *warm)
+        Eigen::MatrixXd E = 1e-2 * Eigen::MatrixXd::Random(p.n(), p.n());
+        p.H += E * E.transpose();
+        break;
+      }
+      case 1:  // every active constraint loses the side it was active on
+        for (int k = 0; k < p.m(); ++k) {
+          if (warm.active_constraints[k] == Active::kUpper) p.ubA(k) = kInf;
+          if (warm.active_constraints[k] == Active::kLower) p.lbA(k) = -kInf;
+        }
+        break;
+      default:  // the equality becomes an inequality, an inactive row an equality
+        for (int k = 0; k < p.m(); ++k) {
+          if (warm.active_constraints[k] == Active::kEquality) p.ubA(k) += 0.5;
+        }
+        for (int k = 0; k < p.m(); ++k) {
+          if (warm.active_constraints[k] == Active::kInactive && std::isfinite(p.lbA(k))) {
+            p.ubA(k) = p.lbA(k);
+            break;
+          }
+        }
+    }
+    Solution cold;
+    const Status cold_status = cold_solver.Solve(p, Budget{}, &cold);
+    Budget budget;
+    budget.warm_start = true;
+    const Status warm_status = warm_solver.Solve(p, budget, &warm);
+    ASSERT_EQ(warm_status, cold_status) << rep;
+    if (cold_status != Status::kOptimal) continue;
+    ExpectKkt(p, warm, "warm after change " + std::to_string(rep));
+    EXPECT_NEAR(warm.objective, cold.objective, 1e-9 * std::max(1.0, std::fabs(cold.objective)))
+        << rep;
+    if (rep % 2) {
+      EXPECT_LE((warm.x - cold.x).cwiseAbs().maxCoeff(), 1e-7) << rep;
+    }
+  }
+}
+
 TEST(QpAllocation, NoHeapInColdOrWarmSolve) {
   HYQ_REQUIRE_HEAP_HOOKS();
   std::mt19937_64 rng(9);
@@ -320,10 +368,22 @@ TEST(QpAllocation, NoHeapInColdOrWarmSolve) {
                                  .active_constraints = 8}, &rng);
   const Planted singular = MakePlanted({.n = 20, .m = 28, .condition = 1e2, .rank = 6,
                                         .active_bounds = 6, .active_constraints = 10}, &rng);
+  Problem infeasible;  // x ≥ 1 and Σ x ≤ −1
+  infeasible.Resize(4, 1);
+  infeasible.H.setIdentity();
+  infeasible.lb.setOnes();
+  infeasible.A.setOnes();
+  infeasible.ubA(0) = -1.0;
+  Problem unbounded;  // min −x, x ≥ 0
+  unbounded.Resize(1, 0);
+  unbounded.g(0) = -1.0;
+  unbounded.lb(0) = 0.0;
   Solution s;
   Budget warm;
   warm.warm_start = true;
   warm.deadline = std::chrono::steady_clock::now() + std::chrono::hours(1);
+  Budget tight;
+  tight.max_iterations = 3;
   std::size_t allocations = 0;
   {
     hyq::testing::NoHeapGuard guard;
@@ -331,6 +391,9 @@ TEST(QpAllocation, NoHeapInColdOrWarmSolve) {
     (void)solver.Solve(t.problem, warm, &s);        // warm, with a deadline
     (void)solver.Solve(singular.problem, Budget{}, &s);  // proximal path
     (void)solver.Solve(singular.problem, warm, &s);
+    (void)solver.Solve(infeasible, Budget{}, &s);
+    (void)solver.Solve(unbounded, Budget{}, &s);
+    (void)solver.Solve(t.problem, tight, &s);  // iteration limit
     Problem bad;  // no sizes: bad input, also without allocating
     (void)solver.Solve(bad, Budget{}, &s);
     allocations = guard.allocations();
