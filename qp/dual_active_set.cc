@@ -3,9 +3,6 @@
 #include <cmath>
 #include <limits>
 #include <utility>
-#ifdef QP_TRACE
-#include <cstdio>
-#endif
 
 namespace hyq::qp::internal {
 namespace {
@@ -300,9 +297,6 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
         return EnterResult::kStop;
       }
     }
-#ifdef QP_TRACE
-    fprintf(stderr, "dependent: remove row %d alpha %.3e\n", ws->w_row[j], alpha);
-#endif
     for (int p = 0; p < ws->nw; ++p) ws->lambda[p] -= alpha * c[p];
     ws->lambda[j] = 0.0;
     lambda_new += alpha;
@@ -499,9 +493,6 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
       if (j < 0 || t < alpha) alpha = t, j = p;
     }
     if (j >= 0) {
-#ifdef QP_TRACE
-      fprintf(stderr, "remove row %d alpha %.3e lstar %.3e\n", ws->w_row[j], alpha, ls[j]);
-#endif
       for (int p = 0; p < nw; ++p) ws->lambda[p] += alpha * (ls[p] - ws->lambda[p]);
       ws->lambda[j] = 0.0;
       Remove(ws, j);
@@ -531,9 +522,6 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
       enter_sign = value > ws->hi[enter] ? 1 : -1;
     }
     if (enter < 0) return InnerStatus::kOptimal;
-#ifdef QP_TRACE
-    fprintf(stderr, "enter row %d sign %d viol %.3e nw %d\n", enter, enter_sign, worst, ws->nw);
-#endif
     const EnterResult entered = Enter(ws, enter, enter_sign, limits, iterations, &status);
     if (entered == EnterResult::kStop) return status;
     if (entered == EnterResult::kSkipped) continue;
