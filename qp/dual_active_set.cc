@@ -243,19 +243,26 @@ bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status)
 // direction (−c, +1) and dropping the blocking rows while it is dependent on W.
 enum class EnterResult { kEntered, kSkipped, kStop };
 
-EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, int* iterations,
-                  InnerStatus* status) {
+EnterResult Enter(Workspace* ws, int row, int sign, double violation, const InnerLimits& limits,
+                  int* iterations, InnerStatus* status) {
   RowVector(*ws, row, ws->mnew.data());
   double lambda_new = 0.0;
+  bool rebuilt = false;
   for (;;) {
     if (TryAppend(ws, row, sign, lambda_new, limits.dependence_tolerance))
       return EnterResult::kEntered;
-    // a row that keeps entering dependent on W at a degenerate vertex swaps with another forever
-    // when its violation is rounding (cond(H + εI) large): skip it for this subproblem; the
-    // refinement on W afterwards makes it exact (qp/solver.cc checks every row again)
-    if (lambda_new == 0.0 && ++ws->dependent_entries[row] > kMaxDependentEntries) {
-      ws->skipped[row] = 1;
-      return EnterResult::kSkipped;
+    // a row that keeps entering dependent on W at a degenerate vertex, with a violation that no
+    // longer shrinks, swaps with another forever (its violation is rounding when cond(H + εI) is
+    // large): skip it for this subproblem; the refinement on W afterwards makes it exact
+    // (qp/solver.cc checks every row again)
+    if (lambda_new == 0.0) {
+      if (ws->dependent_entries[row] > 0 && violation > 0.5 * ws->entry_violation[row] &&
+          ++ws->dependent_entries[row] > kMaxDependentEntries) {
+        ws->skipped[row] = 1;
+        return EnterResult::kSkipped;
+      }
+      if (ws->dependent_entries[row] == 0) ws->dependent_entries[row] = 1;
+      ws->entry_violation[row] = violation;
     }
     if (ws->nw == ws->n) SolveFullWorkingSet(ws, row, sign);
     const double* c = ws->tmp2.data();
@@ -292,6 +299,19 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
           if (t < alpha) alpha = t, j = p;
         }
       }
+      if (j < 0 && CertificateResidual(*ws) > kCertificateTolerance) {
+        // the factors have drifted (many updates of an ill-conditioned Kw): refactorise W once
+        // and retry; failing that, leave the row out of this subproblem rather than claim an
+        // infeasibility the certificate does not prove (the outer KKT check still sees it)
+        if (!rebuilt) {
+          RebuildWorkingSet(ws, limits.dependence_tolerance);
+          RowVector(*ws, row, ws->mnew.data());
+          rebuilt = true;
+          continue;
+        }
+        ws->skipped[row] = 1;
+        return EnterResult::kSkipped;
+      }
       if (j < 0) {
         *status = InnerStatus::kInfeasible;
         return EnterResult::kStop;
@@ -320,7 +340,7 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   for (int k = 0; k < n; ++k) {
     double* Lk = L + k * kN;
     const double d = Lk[k] + eps;
-    if (!(d > relative_floor * (h[k + k * n] + eps)) || !(d > 0.0)) return false;
+    if (!(d > relative_floor * (ws->hmax + eps)) || !(d > 0.0)) return false;
     const double lkk = std::sqrt(d);
     const double inv = 1.0 / lkk;
     Lk[k] = lkk;
@@ -351,8 +371,15 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
       for (int c = 0; c <= k; ++c) Xi[c] -= lik * Xk[c];
     }
   }
+  double frobenius2 = 0.0;
   for (int i = 0; i < n; ++i)
-    for (int j = 0; j <= i; ++j) ws->linvt[j * kN + i] = X[i * kN + j];
+    for (int j = 0; j <= i; ++j) {
+      ws->linvt[j * kN + i] = X[i * kN + j];
+      frobenius2 += X[i * kN + j] * X[i * kN + j];
+    }
+  // pivots can stay well above λ_min(H) (by 1/v_n² for a null vector v): the test that counts is
+  // 1/λ_min = ‖L⁻¹‖₂² ≤ ‖L⁻¹‖_F² ≤ n/λ_min, i.e. reject when max H_ii ‖L⁻¹‖_F² > 1/floor
+  if (relative_floor > 0.0 && !(ws->hmax * frobenius2 * relative_floor <= 1.0)) return false;
   return true;
 }
 
@@ -467,41 +494,50 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
   return step;
 }
 
-InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations) noexcept {
+void ComputeRowSteps(Workspace* ws) noexcept {
+  const int n = ws->n;
+  for (int k = 0; k < n; ++k) ws->cdelta[k] = ws->delta[k];
+  if (ws->m > 0) MultiplyA(*ws->problem, ws->delta.data(), ws->cdelta.data() + n);
+}
+
+InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations,
+                            bool scan_first) noexcept {
   InnerStatus status = InnerStatus::kOptimal;
   for (int i = 0; i < ws->rows; ++i) ws->skipped[i] = ws->dependent_entries[i] = 0;
-  for (;;) {
+  for (bool scan_only = scan_first;; scan_only = false) {
     const int nw = ws->nw;
-    // λ* = −Kw⁻¹ d   (3), Kw = Lw Dw Lwᵀ
-    double* ls = ws->lambda_star.data();
-    for (int p = 0; p < nw; ++p) {
-      const double* Lp = &ws->lw[p * kN];
-      ls[p] = -ws->d[p] - Dot(Lp, ls, p);
+    if (!scan_only) {
+      // λ* = −Kw⁻¹ d   (3), Kw = Lw Dw Lwᵀ
+      double* ls = ws->lambda_star.data();
+      for (int p = 0; p < nw; ++p) {
+        const double* Lp = &ws->lw[p * kN];
+        ls[p] = -ws->d[p] - Dot(Lp, ls, p);
+      }
+      for (int p = 0; p < nw; ++p) ls[p] *= ws->dw_inv[p];
+      for (int p = nw - 1; p >= 0; --p) {
+        const double* Lp = &ws->lw[p * kN];
+        const double lp = ls[p];
+        for (int q = 0; q < p; ++q) ls[q] -= Lp[q] * lp;
+      }
+      // dual step: λ ← λ + α (λ* − λ) up to the first inequality multiplier that reaches 0
+      int j = -1;
+      double alpha = 1.0;
+      for (int p = 0; p < nw; ++p) {
+        if (ws->is_eq[ws->w_row[p]] || !(ls[p] < 0.0)) continue;
+        const double t = ws->lambda[p] / (ws->lambda[p] - ls[p]);
+        if (j < 0 || t < alpha) alpha = t, j = p;
+      }
+      if (j >= 0) {
+        for (int p = 0; p < nw; ++p) ws->lambda[p] += alpha * (ls[p] - ws->lambda[p]);
+        ws->lambda[j] = 0.0;
+        Remove(ws, j);
+        ++*iterations;
+        if (OutOfBudget(limits, *iterations, &status)) return status;
+        continue;
+      }
+      for (int p = 0; p < nw; ++p) ws->lambda[p] = ls[p];
+      ComputeStep(ws);
     }
-    for (int p = 0; p < nw; ++p) ls[p] *= ws->dw_inv[p];
-    for (int p = nw - 1; p >= 0; --p) {
-      const double* Lp = &ws->lw[p * kN];
-      const double lp = ls[p];
-      for (int q = 0; q < p; ++q) ls[q] -= Lp[q] * lp;
-    }
-    // dual step: λ ← λ + α (λ* − λ) up to the first inequality multiplier that reaches 0
-    int j = -1;
-    double alpha = 1.0;
-    for (int p = 0; p < nw; ++p) {
-      if (ws->is_eq[ws->w_row[p]] || !(ls[p] < 0.0)) continue;
-      const double t = ws->lambda[p] / (ws->lambda[p] - ls[p]);
-      if (j < 0 || t < alpha) alpha = t, j = p;
-    }
-    if (j >= 0) {
-      for (int p = 0; p < nw; ++p) ws->lambda[p] += alpha * (ls[p] - ws->lambda[p]);
-      ws->lambda[j] = 0.0;
-      Remove(ws, j);
-      ++*iterations;
-      if (OutOfBudget(limits, *iterations, &status)) return status;
-      continue;
-    }
-    for (int p = 0; p < nw; ++p) ws->lambda[p] = ls[p];
-    ComputeStep(ws);
     // primal step: the most violated row (relative to its bound) enters; branch-free scan over
     // bounds clamped to ±1e300 (an infinite side is never violated), W and skipped rows masked
     int enter = -1;
@@ -522,7 +558,8 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
       enter_sign = value > ws->hi[enter] ? 1 : -1;
     }
     if (enter < 0) return InnerStatus::kOptimal;
-    const EnterResult entered = Enter(ws, enter, enter_sign, limits, iterations, &status);
+    const EnterResult entered =
+        Enter(ws, enter, enter_sign, worst, limits, iterations, &status);
     if (entered == EnterResult::kStop) return status;
     if (entered == EnterResult::kSkipped) continue;
     ++*iterations;

@@ -15,11 +15,11 @@ using internal::kN;
 using internal::Workspace;
 using Clock = std::chrono::steady_clock;
 
-// A pivot below this fraction of H_ii means H is (numerically) singular: use ε > 0.
+// A pivot below this fraction of max H_ii means H is (numerically) singular: use ε > 0.
 constexpr double kPositiveDefiniteFloor = 1e-11;
 // ε is divided by this when the proximal iterations converge slowly, down to kMinRelativeEps.
 constexpr double kEpsReduction = 1e-2;
-constexpr double kMinRelativeEps = 1e-13;
+constexpr double kMinRelativeEps = 1e-9;
 // A proximal step δ is a direction of unboundedness when, normalised, these hold (relative).
 constexpr double kRayTolerance = 1e-8;
 // Refinement steps per outer iteration (each costs about one active-set iteration).
@@ -291,43 +291,55 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
       Linearise(&ws);
       internal::RefreshRightHandSides(&ws);
     }
+    // the subproblem: active-set iterations, then (when the KKT check fails, i.e. the rounding of
+    // an ill-conditioned H + εI shows) refinement on W; a row outside W that the refined step
+    // violates sends the active-set iteration on from there
     int inner = 0;
-    limits.max_iterations = budget.max_iterations - iterations;
-    const InnerStatus inner_status = internal::SolveSubproblem(&ws, limits, &inner);
-    iterations += inner + 1;
-    sol->iterations = iterations;
-    sol->outer_iterations = outer + 1;
-    sol->regularisation = ws.eps;
-    if (inner_status == InnerStatus::kInfeasible) {
-      // the certificate, normalised to ‖w‖∞ = 1, in place of the multipliers
-      const double wmax = std::max(MaxAbs(ws.cert.data(), ws.rows), 1e-300);
-      for (int i = 0; i < n; ++i) {
-        sol->x(i) = ws.xk[i];
-        sol->y_bounds(i) = ws.cert[i] / wmax;
+    bool scan_first = false, stop = false;
+    for (int pass = 0;; ++pass) {
+      int used = 0;
+      limits.max_iterations = budget.max_iterations - iterations - inner;
+      const InnerStatus inner_status = internal::SolveSubproblem(&ws, limits, &used, scan_first);
+      inner += used;
+      sol->iterations = iterations + inner + 1;
+      sol->outer_iterations = outer + 1;
+      sol->regularisation = ws.eps;
+      if (inner_status == InnerStatus::kInfeasible) {
+        // the certificate, normalised to ‖w‖∞ = 1, in place of the multipliers
+        const double wmax = std::max(MaxAbs(ws.cert.data(), ws.rows), 1e-300);
+        for (int i = 0; i < n; ++i) {
+          sol->x(i) = ws.xk[i];
+          sol->y_bounds(i) = ws.cert[i] / wmax;
+        }
+        for (int k = 0; k < m; ++k) sol->y_constraints(k) = ws.cert[n + k] / wmax;
+        status = Status::kInfeasible;
+        stop = true;
+        break;
       }
-      for (int k = 0; k < m; ++k) sol->y_constraints(k) = ws.cert[n + k] / wmax;
-      status = Status::kInfeasible;
-      break;
-    }
-    if (inner_status != InnerStatus::kOptimal) {
-      status = inner_status == InnerStatus::kDeadline ? Status::kDeadline
-                                                      : Status::kIterationLimit;
-      if (!have_iterate) {
-        internal::ComputeStep(&ws);
-        WriteIterate(ws, sol);
-        sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      if (inner_status != InnerStatus::kOptimal) {
+        status = inner_status == InnerStatus::kDeadline ? Status::kDeadline
+                                                        : Status::kIterationLimit;
+        if (!have_iterate) {
+          internal::ComputeStep(&ws);
+          WriteIterate(ws, sol);
+          sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+        }
+        stop = true;
+        break;
       }
-      break;
-    }
-    WriteIterate(ws, sol);
-    have_iterate = true;
-    sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
-    // iterative refinement on W when the factorisations' rounding shows (large cond(H))
-    for (int r = 0; r < kMaxRefinements && sol->kkt.max() > settings_.kkt_tolerance; ++r) {
+      WriteIterate(ws, sol);
+      have_iterate = true;
+      sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      if (sol->kkt.max() <= settings_.kkt_tolerance || pass >= kMaxRefinements) break;
       internal::RefineOnWorkingSet(&ws);
       WriteIterate(ws, sol);
       sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      if (sol->kkt.max() <= settings_.kkt_tolerance) break;
+      internal::ComputeRowSteps(&ws);
+      scan_first = true;
     }
+    iterations += inner + 1;
+    if (stop) break;
     if (sol->kkt.max() <= settings_.kkt_tolerance) {
       status = Status::kOptimal;
       break;
@@ -349,7 +361,9 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
     const double step = MaxAbs(ws.delta.data(), n);
     for (int i = 0; i < n; ++i) ws.xk[i] += ws.delta[i];
     // slow linear convergence (small curvature against ε on the active face): smaller ε
-    if (ws.eps > eps_floor && inner == 0 && outer > 0 && step > 0.25 * step_prev) {
+    // (or, when the active set still changes, when the steps hardly shrink at all)
+    if (ws.eps > eps_floor && outer > 0 &&
+        ((inner == 0 && step > 0.25 * step_prev) || (outer > 2 && step > 0.5 * step_prev))) {
       const double eps_new = std::max(eps_floor, ws.eps * kEpsReduction);
       if (internal::FactorHessian(&ws, eps_new, 0.0)) {
         ws.eps = eps_new;

@@ -76,6 +76,7 @@ struct Workspace {
   std::array<double, kN> mnew{}, kvec{}, tmp{}, tmp2{}, delta_prev{};
   std::array<double, kMaxRows> cert{};  // signed Farkas multipliers over rows
   std::array<std::uint8_t, kMaxRows> skipped{}, dependent_entries{};  // per subproblem
+  std::array<double, kMaxRows> entry_violation{};  // at the last dependent entry
   std::array<double, kN * kN> square{};  // a full working set's rows, for a direct solve
 
   // the H and A that L and W belong to: a warm start with the same matrices keeps them
