@@ -331,6 +331,12 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
       have_iterate = true;
       sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
       if (sol->kkt.max() <= settings_.kkt_tolerance || pass >= kMaxRefinements) break;
+      // with ε > 0 stationarity includes the proximal term ε δ, which the next outer iteration
+      // removes; refinement is for the rows (primal, complementarity) or for ε = 0
+      const double tol = settings_.kkt_tolerance;
+      if (sol->kkt.primal <= tol && sol->kkt.complementarity <= tol && sol->kkt.dual <= tol &&
+          (ws.eps > 0.0 || sol->kkt.stationarity <= tol))
+        break;
       internal::RefineOnWorkingSet(&ws);
       WriteIterate(ws, sol);
       sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
