@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 
 #include "qp/dual_active_set.h"
 #include "qp/workspace.h"
@@ -167,7 +168,23 @@ bool IsWellFormed(const Problem& p) noexcept {
 }
 
 Solver::Solver(const Settings& settings)
-    : settings_(settings), ws_(std::make_unique<internal::Workspace>()) {}
+    : settings_(settings), ws_(std::make_unique<internal::Workspace>()) {
+#if defined(HYQ_NAN_INIT)
+  // debug builds: every floating-point workspace entry starts as NaN, so that a read before a
+  // write shows in the results (house style §4)
+  internal::Workspace& w = *ws_;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (auto* a : {&w.chol, &w.linv, &w.linvt, &w.mw, &w.lw, &w.square, &w.h_copy})
+    a->fill(nan);
+  for (auto* a : {&w.xk, &w.q, &w.v, &w.u, &w.delta, &w.lambda, &w.lambda_star, &w.d, &w.dw,
+                  &w.dw_inv, &w.chol_inv_diag, &w.mnew, &w.kvec, &w.tmp, &w.tmp2, &w.delta_prev})
+    a->fill(nan);
+  for (auto* a : {&w.lo, &w.hi, &w.cx, &w.cdelta, &w.cert, &w.lo_scale, &w.hi_scale,
+                  &w.lo_finite, &w.hi_finite, &w.entry_violation, &w.warm_y})
+    a->fill(nan);
+  w.a_copy.fill(nan);
+#endif
+}
 Solver::~Solver() = default;
 Solver::Solver(Solver&&) noexcept = default;
 Solver& Solver::operator=(Solver&&) noexcept = default;
