@@ -28,13 +28,6 @@ void BackwardChol(const Workspace& ws, double* z) {
   for (int j = 0; j < n; ++j) z[j] = Dot(&ws.linvt[j * kN] + j, t + j, n - j);
 }
 
-// z = Lw⁻ᵀ z in place (Lw unit lower triangular): z_p −= Σ_{q>p} Lw(q, p) z_q, reading
-// column p of Lw with a stride
-void BackSubstitute(const Workspace& ws, double* z) {
-  for (int p = ws.nw - 2; p >= 0; --p)
-    z[p] -= StridedDot(&ws.lw[(p + 1) * kN + p], kN, z + p + 1, ws.nw - p - 1);
-}
-
 // m = L⁻¹ C_rowᵀ: a bound row is e_i, so m is zero above i
 void RowVector(const Workspace& ws, int row, double* m) {
   const int n = ws.n;
@@ -135,8 +128,12 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
     ws->nw = nw + 1;
     return true;
   }
-  // c = Lw⁻ᵀ l
-  BackSubstitute(*ws, l);
+  // c = Lw⁻ᵀ l, column-oriented
+  for (int p = nw - 1; p >= 0; --p) {
+    const double cp = l[p];
+    const double* Lp = &ws->lw[p * kN];
+    for (int q = 0; q < p; ++q) l[q] -= Lp[q] * cp;
+  }
   return false;
 }
 
@@ -160,7 +157,10 @@ void RefineCertificate(Workspace* ws) {
     y[q] = -ws->w_sign[q] * Dot(&ws->mw[q * kN], r, n) - Dot(Lq, y, q);
   }
   for (int q = 0; q < nw; ++q) y[q] *= ws->dw_inv[q];
-  BackSubstitute(*ws, y);
+  for (int q = nw - 1; q >= 0; --q) {
+    const double* Lq = &ws->lw[q * kN];
+    for (int k = 0; k < q; ++k) y[k] -= Lq[k] * y[q];
+  }
   for (int q = 0; q < nw; ++q) {
     const int row = ws->w_row[q];
     ws->cert[row] += ws->w_sign[q] * y[q];
@@ -411,10 +411,14 @@ void RebuildWorkingSet(Workspace* ws, double dependence_tolerance) noexcept {
 void ComputeStep(Workspace* ws) noexcept {
   const int n = ws->n;
   double* u = ws->u.data();
-  // u = −M_Wᵀ λ   (3), one strided dot per entry (no chain through u)
-  double a[kN];
-  for (int p = 0; p < ws->nw; ++p) a[p] = -ws->w_sign[p] * ws->lambda[p];
-  for (int k = 0; k < n; ++k) u[k] = StridedDot(&ws->mw[k], kN, a, ws->nw);
+  for (int k = 0; k < n; ++k) u[k] = 0.0;
+  // u = −M_Wᵀ λ   (3)
+  for (int p = 0; p < ws->nw; ++p) {
+    const double a = -ws->w_sign[p] * ws->lambda[p];
+    if (a == 0.0) continue;
+    const double* mp = &ws->mw[p * kN];
+    for (int k = 0; k < n; ++k) u[k] += a * mp[k];
+  }
   // δ = L⁻ᵀ (u − v)
   double* delta = ws->delta.data();
   for (int k = 0; k < n; ++k) delta[k] = u[k] - ws->v[k];
@@ -465,7 +469,10 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
     dl[q] = -dd[q] - Dot(Lq, dl, q);
   }
   for (int q = 0; q < nw; ++q) dl[q] *= ws->dw_inv[q];
-  BackSubstitute(*ws, dl);
+  for (int q = nw - 1; q >= 0; --q) {
+    const double* Lq = &ws->lw[q * kN];
+    for (int k = 0; k < q; ++k) dl[k] -= Lq[k] * dl[q];
+  }
   // Δδ = L⁻ᵀ (−M_Wᵀ Δλ − v')
   double* dx = ws->u.data();
   for (int i = 0; i < n; ++i) dx[i] = -rx[i];
@@ -507,7 +514,11 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
         ls[p] = -ws->d[p] - Dot(Lp, ls, p);
       }
       for (int p = 0; p < nw; ++p) ls[p] *= ws->dw_inv[p];
-      BackSubstitute(*ws, ls);
+      for (int p = nw - 1; p >= 0; --p) {
+        const double* Lp = &ws->lw[p * kN];
+        const double lp = ls[p];
+        for (int q = 0; q < p; ++q) ls[q] -= Lp[q] * lp;
+      }
       // dual step: λ ← λ + α (λ* − λ) up to the first inequality multiplier that reaches 0
       int j = -1;
       double alpha = 1.0;

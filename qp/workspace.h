@@ -88,20 +88,6 @@ struct Workspace {
   std::array<double, kMaxRows> warm_y{};
 };
 
-/// Σ_i a[i * stride] b[i], four partial sums.
-inline double StridedDot(const double* a, int stride, const double* b, int n) noexcept {
-  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-  int i = 0;
-  for (; i + 4 <= n; i += 4) {
-    s0 += a[i * stride] * b[i];
-    s1 += a[(i + 1) * stride] * b[i + 1];
-    s2 += a[(i + 2) * stride] * b[i + 2];
-    s3 += a[(i + 3) * stride] * b[i + 3];
-  }
-  for (; i < n; ++i) s0 += a[i * stride] * b[i];
-  return (s0 + s1) + (s2 + s3);
-}
-
 /// out = A x (m entries, overwritten), four columns of A per pass over out.
 inline void MultiplyA(const Problem& p, const double* x, double* out) noexcept {
   const int n = p.n(), m = p.m();
