@@ -3,9 +3,6 @@
 #include <cmath>
 #include <limits>
 #include <utility>
-#ifdef QP_TRACE
-#include <cstdio>
-#endif
 
 namespace hyq::qp::internal {
 namespace {
@@ -15,30 +12,29 @@ constexpr int kMaxDependentEntries = 2;
 // A Farkas certificate is accepted when ‖Cᵀ w‖ is below this (relative, see CertificateResidual).
 constexpr double kCertificateTolerance = 1e-12;
 
-// z = L⁻¹ z in place, z zero above `first`
+// z = L⁻¹ z in place, z zero above `first`: rows of L⁻¹ times z, each independent
 void ForwardChol(const Workspace& ws, double* z, int first) {
-  for (int i = first; i < ws.n; ++i) {
-    const double* Li = &ws.chol[i * kN];
-    z[i] = (z[i] - Dot(Li + first, z + first, i - first)) / Li[i];
-  }
+  double t[kN];
+  const int n = ws.n;
+  for (int i = first; i < n; ++i) t[i] = z[i];
+  for (int i = first; i < n; ++i) z[i] = Dot(&ws.linv[i * kN] + first, t + first, i - first + 1);
 }
 
-// z = L⁻ᵀ z in place: z_i = (z_i − Σ_{k>i} L(k, i) z_k) / L(i, i), column i of L contiguous
+// z = L⁻ᵀ z in place: z_j = (column j of L⁻¹)ᵀ z, each independent
 void BackwardChol(const Workspace& ws, double* z) {
+  double t[kN];
   const int n = ws.n;
-  for (int i = n - 1; i >= 0; --i) {
-    const double* Ci = &ws.cholt[i * kN];
-    z[i] = (z[i] - Dot(Ci + i + 1, z + i + 1, n - i - 1)) / Ci[i];
-  }
+  for (int i = 0; i < n; ++i) t[i] = z[i];
+  for (int j = 0; j < n; ++j) z[j] = Dot(&ws.linvt[j * kN] + j, t + j, n - j);
 }
 
 // m = L⁻¹ C_rowᵀ: a bound row is e_i, so m is zero above i
 void RowVector(const Workspace& ws, int row, double* m) {
   const int n = ws.n;
   if (row < n) {
-    for (int j = 0; j < n; ++j) m[j] = 0.0;
-    m[row] = 1.0;
-    ForwardChol(ws, m, row);
+    // L⁻¹ e_row is column `row` of L⁻¹
+    for (int j = 0; j < row; ++j) m[j] = 0.0;
+    for (int j = row; j < n; ++j) m[j] = ws.linv[j * kN + row];
   } else {
     const Problem& p = *ws.problem;
     for (int j = 0; j < n; ++j) m[j] = p.A(row - n, j);
@@ -70,6 +66,7 @@ void Remove(Workspace* ws, int j) {
     const double beta = pz * a / dn;
     a = ws->dw[c] * a / dn;
     ws->dw[c] = dn;
+    ws->dw_inv[c] = 1.0 / dn;
     for (int r = c + 1; r < nw; ++r) {
       z[r] -= pz * lw[r * kN + c];
       lw[r * kN + c] += beta * z[r];
@@ -83,6 +80,7 @@ void Remove(Workspace* ws, int j) {
     for (int c = j + 1; c < r; ++c) dst[c - 1] = src[c];
     dst[r - 1] = 1.0;
     ws->dw[r - 1] = ws->dw[r];
+    ws->dw_inv[r - 1] = ws->dw_inv[r];
     ws->w_row[r - 1] = ws->w_row[r];
     ws->w_sign[r - 1] = ws->w_sign[r];
     ws->lambda[r - 1] = ws->lambda[r];
@@ -112,7 +110,7 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
     const double* Lp = &ws->lw[p * kN];
     const double s = r[p] - Dot(Lp, r, p);
     r[p] = s;
-    l[p] = s / ws->dw[p];
+    l[p] = s * ws->dw_inv[p];
     pivot -= s * l[p];
   }
   if (nw < n && pivot > tol * mm && mm > 0.0) {
@@ -120,6 +118,7 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
     for (int q = 0; q < nw; ++q) Lrow[q] = l[q];
     Lrow[nw] = 1.0;
     ws->dw[nw] = pivot;
+    ws->dw_inv[nw] = 1.0 / pivot;
     for (int k = 0; k < n; ++k) ws->mw[nw * kN + k] = m[k];
     ws->w_row[nw] = row;
     ws->w_sign[nw] = static_cast<std::int8_t>(sign);
@@ -157,7 +156,7 @@ void RefineCertificate(Workspace* ws) {
     const double* Lq = &ws->lw[q * kN];
     y[q] = -ws->w_sign[q] * Dot(&ws->mw[q * kN], r, n) - Dot(Lq, y, q);
   }
-  for (int q = 0; q < nw; ++q) y[q] /= ws->dw[q];
+  for (int q = 0; q < nw; ++q) y[q] *= ws->dw_inv[q];
   for (int q = nw - 1; q >= 0; --q) {
     const double* Lq = &ws->lw[q * kN];
     for (int k = 0; k < q; ++k) y[k] -= Lq[k] * y[q];
@@ -244,19 +243,26 @@ bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status)
 // direction (−c, +1) and dropping the blocking rows while it is dependent on W.
 enum class EnterResult { kEntered, kSkipped, kStop };
 
-EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, int* iterations,
-                  InnerStatus* status) {
+EnterResult Enter(Workspace* ws, int row, int sign, double violation, const InnerLimits& limits,
+                  int* iterations, InnerStatus* status) {
   RowVector(*ws, row, ws->mnew.data());
   double lambda_new = 0.0;
+  bool rebuilt = false;
   for (;;) {
     if (TryAppend(ws, row, sign, lambda_new, limits.dependence_tolerance))
       return EnterResult::kEntered;
-    // a row that keeps entering dependent on W at a degenerate vertex swaps with another forever
-    // when its violation is rounding (cond(H + εI) large): skip it for this subproblem; the
-    // refinement on W afterwards makes it exact (qp/solver.cc checks every row again)
-    if (lambda_new == 0.0 && ++ws->dependent_entries[row] > kMaxDependentEntries) {
-      ws->skipped[row] = 1;
-      return EnterResult::kSkipped;
+    // a row that keeps entering dependent on W at a degenerate vertex, with a violation that no
+    // longer shrinks, swaps with another forever (its violation is rounding when cond(H + εI) is
+    // large): skip it for this subproblem; the refinement on W afterwards makes it exact
+    // (qp/solver.cc checks every row again)
+    if (lambda_new == 0.0) {
+      if (ws->dependent_entries[row] > 0 && violation > 0.5 * ws->entry_violation[row] &&
+          ++ws->dependent_entries[row] > kMaxDependentEntries) {
+        ws->skipped[row] = 1;
+        return EnterResult::kSkipped;
+      }
+      if (ws->dependent_entries[row] == 0) ws->dependent_entries[row] = 1;
+      ws->entry_violation[row] = violation;
     }
     if (ws->nw == ws->n) SolveFullWorkingSet(ws, row, sign);
     const double* c = ws->tmp2.data();
@@ -293,14 +299,24 @@ EnterResult Enter(Workspace* ws, int row, int sign, const InnerLimits& limits, i
           if (t < alpha) alpha = t, j = p;
         }
       }
+      if (j < 0 && CertificateResidual(*ws) > kCertificateTolerance) {
+        // the factors have drifted (many updates of an ill-conditioned Kw): refactorise W once
+        // and retry; failing that, leave the row out of this subproblem rather than claim an
+        // infeasibility the certificate does not prove (the outer KKT check still sees it)
+        if (!rebuilt) {
+          RebuildWorkingSet(ws, limits.dependence_tolerance);
+          RowVector(*ws, row, ws->mnew.data());
+          rebuilt = true;
+          continue;
+        }
+        ws->skipped[row] = 1;
+        return EnterResult::kSkipped;
+      }
       if (j < 0) {
         *status = InnerStatus::kInfeasible;
         return EnterResult::kStop;
       }
     }
-#ifdef QP_TRACE
-    fprintf(stderr, "dependent: remove row %d alpha %.3e\n", ws->w_row[j], alpha);
-#endif
     for (int p = 0; p < ws->nw; ++p) ws->lambda[p] -= alpha * c[p];
     ws->lambda[j] = 0.0;
     lambda_new += alpha;
@@ -316,22 +332,54 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   const Problem& p = *ws->problem;
   const int n = ws->n;
   const double* h = p.H.data();
-  for (int i = 0; i < n; ++i) {
-    double* Li = &ws->chol[i * kN];
-    for (int j = 0; j <= i; ++j) {
-      const double* Lj = &ws->chol[j * kN];
-      double s = h[i + j * n] - Dot(Li, Lj, j);
-      if (i == j) {
-        s += eps;
-        if (!(s > relative_floor * (p.H(i, i) + eps)) || !(s > 0.0)) return false;
-        Li[i] = std::sqrt(s);
-      } else {
-        Li[j] = s / Lj[j];
-      }
+  double* L = ws->chol.data();  // column-major, L(i, k) = L[i + k * kN]
+  for (int j = 0; j < n; ++j)
+    for (int i = j; i < n; ++i) L[i + j * kN] = h[i + j * n];
+  // right-looking Cholesky: column k, then the rank-one update of the trailing block, whose
+  // columns are independent axpys (no chains of dependent dot products)
+  for (int k = 0; k < n; ++k) {
+    double* Lk = L + k * kN;
+    const double d = Lk[k] + eps;
+    if (!(d > relative_floor * (ws->hmax + eps)) || !(d > 0.0)) return false;
+    const double lkk = std::sqrt(d);
+    const double inv = 1.0 / lkk;
+    Lk[k] = lkk;
+    ws->chol_inv_diag[k] = inv;
+    for (int i = k + 1; i < n; ++i) Lk[i] *= inv;
+    for (int j = k + 1; j < n; ++j) {
+      const double ljk = Lk[j];
+      double* Lj = L + j * kN;
+      for (int i = j; i < n; ++i) Lj[i] -= Lk[i] * ljk;
     }
   }
+  // L⁻¹ by the same right-looking sweep on the identity: row k of X = L⁻¹ is final once scaled,
+  // then removed from the rows below it
+  double* X = ws->linv.data();  // row-major
+  for (int i = 0; i < n; ++i) {
+    double* Xi = X + i * kN;
+    for (int c = 0; c < i; ++c) Xi[c] = 0.0;
+    Xi[i] = 1.0;
+  }
+  for (int k = 0; k < n; ++k) {
+    double* Xk = X + k * kN;
+    const double inv = ws->chol_inv_diag[k];
+    for (int c = 0; c <= k; ++c) Xk[c] *= inv;
+    const double* Lk = L + k * kN;
+    for (int i = k + 1; i < n; ++i) {
+      const double lik = Lk[i];
+      double* Xi = X + i * kN;
+      for (int c = 0; c <= k; ++c) Xi[c] -= lik * Xk[c];
+    }
+  }
+  double frobenius2 = 0.0;
   for (int i = 0; i < n; ++i)
-    for (int k = 0; k <= i; ++k) ws->cholt[k * kN + i] = ws->chol[i * kN + k];
+    for (int j = 0; j <= i; ++j) {
+      ws->linvt[j * kN + i] = X[i * kN + j];
+      frobenius2 += X[i * kN + j] * X[i * kN + j];
+    }
+  // pivots can stay well above λ_min(H) (by 1/v_n² for a null vector v): the test that counts is
+  // 1/λ_min = ‖L⁻¹‖₂² ≤ ‖L⁻¹‖_F² ≤ n/λ_min, i.e. reject when max H_ii ‖L⁻¹‖_F² > 1/floor
+  if (relative_floor > 0.0 && !(ws->hmax * frobenius2 * relative_floor <= 1.0)) return false;
   return true;
 }
 
@@ -339,6 +387,8 @@ void RefreshRightHandSides(Workspace* ws) noexcept {
   for (int p = 0; p < ws->nw; ++p)
     ws->d[p] = RightHandSide(*ws, ws->w_row[p], ws->w_sign[p], &ws->mw[p * kN]);
 }
+
+void RemoveFromWorkingSet(Workspace* ws, int j) noexcept { Remove(ws, j); }
 
 bool AppendIfIndependent(Workspace* ws, int row, int sign, double lambda,
                          double dependence_tolerance) noexcept {
@@ -388,12 +438,9 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
   double* rx = ws->tmp.data();
   double* x = ws->tmp2.data();
   for (int i = 0; i < n; ++i) x[i] = ws->xk[i] + ws->delta[i];
-  // r_x = H x + g + ε δ + Σ s_p λ_p C_pᵀ
-  for (int i = 0; i < n; ++i) rx[i] = p.g(i) + ws->eps * ws->delta[i];
-  for (int j = 0; j < n; ++j) {
-    const double xj = x[j];
-    for (int i = 0; i < n; ++i) rx[i] += p.H(i, j) * xj;
-  }
+  // r_x = H x + g + ε δ + Σ s_p λ_p C_pᵀ   (H symmetric: row i = column i)
+  for (int i = 0; i < n; ++i)
+    rx[i] = p.g(i) + ws->eps * ws->delta[i] + Dot(p.H.data() + i * n, x, n);
   for (int q = 0; q < nw; ++q) {
     const int row = ws->w_row[q];
     const double y = ws->w_sign[q] * ws->lambda[q];
@@ -403,18 +450,15 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
       for (int j = 0; j < n; ++j) rx[j] += p.A(row - n, j) * y;
     }
   }
+  // A x for the residuals of W's rows
+  double* ax = ws->cdelta.data() + n;
+  if (ws->m > 0) MultiplyA(p, x, ax);
   // v' = L⁻¹ r_x; d'_p = s_p (−r_c,p + m_pᵀ v')
   ForwardChol(*ws, rx, 0);
   double* dd = ws->kvec.data();
   for (int q = 0; q < nw; ++q) {
     const int row = ws->w_row[q];
-    double cxq;
-    if (row < n) {
-      cxq = x[row];
-    } else {
-      cxq = 0.0;
-      for (int j = 0; j < n; ++j) cxq += p.A(row - n, j) * x[j];
-    }
+    const double cxq = row < n ? x[row] : ax[row - n];
     const double rc = cxq - SideBound(*ws, row, ws->w_sign[q]);
     dd[q] = ws->w_sign[q] * (-rc + Dot(&ws->mw[q * kN], rx, n));
   }
@@ -424,7 +468,7 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
     const double* Lq = &ws->lw[q * kN];
     dl[q] = -dd[q] - Dot(Lq, dl, q);
   }
-  for (int q = 0; q < nw; ++q) dl[q] /= ws->dw[q];
+  for (int q = 0; q < nw; ++q) dl[q] *= ws->dw_inv[q];
   for (int q = nw - 1; q >= 0; --q) {
     const double* Lq = &ws->lw[q * kN];
     for (int k = 0; k < q; ++k) dl[k] -= Lq[k] * dl[q];
@@ -450,63 +494,72 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
   return step;
 }
 
-InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations) noexcept {
+void ComputeRowSteps(Workspace* ws) noexcept {
+  const int n = ws->n;
+  for (int k = 0; k < n; ++k) ws->cdelta[k] = ws->delta[k];
+  if (ws->m > 0) MultiplyA(*ws->problem, ws->delta.data(), ws->cdelta.data() + n);
+}
+
+InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations,
+                            bool scan_first) noexcept {
   InnerStatus status = InnerStatus::kOptimal;
   for (int i = 0; i < ws->rows; ++i) ws->skipped[i] = ws->dependent_entries[i] = 0;
-  for (;;) {
+  for (bool scan_only = scan_first;; scan_only = false) {
     const int nw = ws->nw;
-    // λ* = −Kw⁻¹ d   (3), Kw = Lw Dw Lwᵀ
-    double* ls = ws->lambda_star.data();
-    for (int p = 0; p < nw; ++p) {
-      const double* Lp = &ws->lw[p * kN];
-      ls[p] = -ws->d[p] - Dot(Lp, ls, p);
+    if (!scan_only) {
+      // λ* = −Kw⁻¹ d   (3), Kw = Lw Dw Lwᵀ
+      double* ls = ws->lambda_star.data();
+      for (int p = 0; p < nw; ++p) {
+        const double* Lp = &ws->lw[p * kN];
+        ls[p] = -ws->d[p] - Dot(Lp, ls, p);
+      }
+      for (int p = 0; p < nw; ++p) ls[p] *= ws->dw_inv[p];
+      for (int p = nw - 1; p >= 0; --p) {
+        const double* Lp = &ws->lw[p * kN];
+        const double lp = ls[p];
+        for (int q = 0; q < p; ++q) ls[q] -= Lp[q] * lp;
+      }
+      // dual step: λ ← λ + α (λ* − λ) up to the first inequality multiplier that reaches 0
+      int j = -1;
+      double alpha = 1.0;
+      for (int p = 0; p < nw; ++p) {
+        if (ws->is_eq[ws->w_row[p]] || !(ls[p] < 0.0)) continue;
+        const double t = ws->lambda[p] / (ws->lambda[p] - ls[p]);
+        if (j < 0 || t < alpha) alpha = t, j = p;
+      }
+      if (j >= 0) {
+        for (int p = 0; p < nw; ++p) ws->lambda[p] += alpha * (ls[p] - ws->lambda[p]);
+        ws->lambda[j] = 0.0;
+        Remove(ws, j);
+        ++*iterations;
+        if (OutOfBudget(limits, *iterations, &status)) return status;
+        continue;
+      }
+      for (int p = 0; p < nw; ++p) ws->lambda[p] = ls[p];
+      ComputeStep(ws);
     }
-    for (int p = 0; p < nw; ++p) ls[p] /= ws->dw[p];
-    for (int p = nw - 1; p >= 0; --p) {
-      const double* Lp = &ws->lw[p * kN];
-      const double lp = ls[p];
-      for (int q = 0; q < p; ++q) ls[q] -= Lp[q] * lp;
-    }
-    // dual step: λ ← λ + α (λ* − λ) up to the first inequality multiplier that reaches 0
-    int j = -1;
-    double alpha = 1.0;
-    for (int p = 0; p < nw; ++p) {
-      if (ws->is_eq[ws->w_row[p]] || !(ls[p] < 0.0)) continue;
-      const double t = ws->lambda[p] / (ws->lambda[p] - ls[p]);
-      if (j < 0 || t < alpha) alpha = t, j = p;
-    }
-    if (j >= 0) {
-#ifdef QP_TRACE
-      fprintf(stderr, "remove row %d alpha %.3e lstar %.3e\n", ws->w_row[j], alpha, ls[j]);
-#endif
-      for (int p = 0; p < nw; ++p) ws->lambda[p] += alpha * (ls[p] - ws->lambda[p]);
-      ws->lambda[j] = 0.0;
-      Remove(ws, j);
-      ++*iterations;
-      if (OutOfBudget(limits, *iterations, &status)) return status;
-      continue;
-    }
-    for (int p = 0; p < nw; ++p) ws->lambda[p] = ls[p];
-    ComputeStep(ws);
-    // primal step: the most violated row (relative to its bound) enters
-    int enter = -1, enter_sign = 0;
+    // primal step: the most violated row (relative to its bound) enters; branch-free scan over
+    // bounds clamped to ±1e300 (an infinite side is never violated), W and skipped rows masked
+    int enter = -1;
     double worst = limits.primal_tolerance;
     for (int i = 0; i < ws->rows; ++i) {
-      if (ws->pos_of[i] >= 0 || ws->skipped[i]) continue;
       const double value = ws->cx[i] + ws->cdelta[i];
-      if (value > ws->hi[i]) {
-        const double up = (value - ws->hi[i]) * ws->hi_scale[i];
-        if (up > worst) worst = up, enter = i, enter_sign = 1;
-      } else if (value < ws->lo[i]) {
-        const double down = (ws->lo[i] - value) * ws->lo_scale[i];
-        if (down > worst) worst = down, enter = i, enter_sign = -1;
-      }
+      const double up = (value - ws->hi_finite[i]) * ws->hi_scale[i];
+      const double down = (ws->lo_finite[i] - value) * ws->lo_scale[i];
+      double v = up > down ? up : down;
+      v = (ws->pos_of[i] >= 0 || ws->skipped[i]) ? -1.0 : v;
+      const bool better = v > worst;
+      worst = better ? v : worst;
+      enter = better ? i : enter;
+    }
+    int enter_sign = 0;
+    if (enter >= 0) {
+      const double value = ws->cx[enter] + ws->cdelta[enter];
+      enter_sign = value > ws->hi[enter] ? 1 : -1;
     }
     if (enter < 0) return InnerStatus::kOptimal;
-#ifdef QP_TRACE
-    fprintf(stderr, "enter row %d sign %d viol %.3e nw %d\n", enter, enter_sign, worst, ws->nw);
-#endif
-    const EnterResult entered = Enter(ws, enter, enter_sign, limits, iterations, &status);
+    const EnterResult entered =
+        Enter(ws, enter, enter_sign, worst, limits, iterations, &status);
     if (entered == EnterResult::kStop) return status;
     if (entered == EnterResult::kSkipped) continue;
     ++*iterations;

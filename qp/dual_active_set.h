@@ -35,8 +35,9 @@ struct InnerLimits {
   double dependence_tolerance = 0.0;
 };
 
-/// H + eps I = L Lᵀ from the lower triangle of H. False when a pivot is not above
-/// relative_floor · (H_ii + eps) (or not positive).
+/// H + eps I = L Lᵀ from the lower triangle of H, and L⁻¹. False when a pivot is not above
+/// relative_floor · (max_i H_ii + eps) (or not positive), or when relative_floor > 0 and
+/// max_i H_ii ‖L⁻¹‖_F² > 1 / relative_floor (a condition-number test). Needs ws->hmax.
 bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept;
 
 /// d_p for every p in W, after v and C x_k changed.
@@ -47,12 +48,21 @@ void RefreshRightHandSides(Workspace* ws) noexcept;
 bool AppendIfIndependent(Workspace* ws, int row, int sign, double lambda,
                          double dependence_tolerance) noexcept;
 
+/// Takes position j out of W (LDLᵀ downdate).
+void RemoveFromWorkingSet(Workspace* ws, int j) noexcept;
+
 /// Recomputes every m_p and the LDLᵀ factors of W after L changed; dependent rows are dropped.
 void RebuildWorkingSet(Workspace* ws, double dependence_tolerance) noexcept;
 
 /// Runs (3) from the current W and λ (λ ≥ 0 on inequality rows). On kOptimal, δ and C δ hold the
 /// subproblem's solution; on kInfeasible ws->cert holds the Farkas multipliers over rows.
-InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations) noexcept;
+/// scan_first: start by looking for a violated row at the current δ and C δ (after refinement)
+/// instead of recomputing λ* and δ.
+InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations,
+                            bool scan_first = false) noexcept;
+
+/// C δ = [δ; A δ] from the current δ.
+void ComputeRowSteps(Workspace* ws) noexcept;
 
 /// One step of iterative refinement of the subproblem's KKT system on the fixed working set W:
 ///   r_x = (H + εI) δ + q + Σ_p s_p λ_p C_pᵀ,   r_c,p = C_p (x_k + δ) − b_p   (original data)

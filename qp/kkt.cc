@@ -7,6 +7,22 @@
 #include "qp/problem.h"
 
 namespace hyq::qp {
+namespace {
+
+double Dot(const double* a, const double* b, int n) {
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    s0 += a[i] * b[i];
+    s1 += a[i + 1] * b[i + 1];
+    s2 += a[i + 2] * b[i + 2];
+    s3 += a[i + 3] * b[i + 3];
+  }
+  for (; i < n; ++i) s0 += a[i] * b[i];
+  return (s0 + s1) + (s2 + s3);
+}
+
+}  // namespace
 
 void Problem::Resize(int n, int m) noexcept {
   n = std::clamp(n, 0, kMaxVariables);
@@ -50,9 +66,9 @@ KktResiduals ComputeKktResiduals(const Problem& p, const VectorN& x, const Vecto
   }
   double hx_max = 0, g_max = 0, yb_max = 0, aty_max = 0, stat = 0, x_max = 0;
   for (int i = 0; i < n; ++i) {
-    double hx = 0, aty = 0;
-    for (int j = 0; j < n; ++j) hx += H[i + j * n] * x(j);
-    for (int k = 0; k < m; ++k) aty += A[k + i * m] * y_constraints(k);
+    // row i of H is its column i (H symmetric); Aᵀy takes column i of A: both contiguous
+    const double hx = Dot(H + i * n, x.data(), n);
+    const double aty = Dot(A + i * m, y_constraints.data(), m);
     hx_max = std::max(hx_max, std::fabs(hx));
     g_max = std::max(g_max, std::fabs(p.g(i)));
     yb_max = std::max(yb_max, std::fabs(y_bounds(i)));

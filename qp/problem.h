@@ -76,7 +76,9 @@ struct Budget {
   /// Absolute steady-clock time after which the solve stops with Status::kDeadline.
   std::optional<std::chrono::steady_clock::time_point> deadline;
   /// Start from Solution's active set and multipliers (and, for a singular H, its x) as left by
-  /// the previous solve of a problem with the same n and m. Ignored on a size mismatch.
+  /// the previous solve of a problem with the same n and m. Ignored on a size mismatch. When H
+  /// and A are bit-for-bit those of this Solver's previous solve, the solver instead continues
+  /// from its own factorisation and working set (no refactorisation; docs/qp.md).
   bool warm_start = false;
 };
 

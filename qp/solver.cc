@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 
 #include "qp/dual_active_set.h"
 #include "qp/workspace.h"
@@ -14,11 +16,11 @@ using internal::kN;
 using internal::Workspace;
 using Clock = std::chrono::steady_clock;
 
-// A pivot below this fraction of H_ii means H is (numerically) singular: use ε > 0.
+// A pivot below this fraction of max H_ii means H is (numerically) singular: use ε > 0.
 constexpr double kPositiveDefiniteFloor = 1e-11;
 // ε is divided by this when the proximal iterations converge slowly, down to kMinRelativeEps.
 constexpr double kEpsReduction = 1e-2;
-constexpr double kMinRelativeEps = 1e-13;
+constexpr double kMinRelativeEps = 1e-9;
 // A proximal step δ is a direction of unboundedness when, normalised, these hold (relative).
 constexpr double kRayTolerance = 1e-8;
 // Refinement steps per outer iteration (each costs about one active-set iteration).
@@ -40,10 +42,7 @@ void Linearise(Workspace* ws) {
   }
   internal::MultiplyA(p, ws->xk.data(), ws->cx.data() + n);
   for (int i = 0; i < n; ++i) ws->q[i] += internal::Dot(p.H.data() + i * n, ws->xk.data(), n);
-  for (int i = 0; i < n; ++i) {
-    const double* Li = &ws->chol[i * kN];
-    ws->v[i] = (ws->q[i] - internal::Dot(Li, ws->v.data(), i)) / Li[i];
-  }
+  for (int i = 0; i < n; ++i) ws->v[i] = internal::Dot(&ws->linv[i * kN], ws->q.data(), i + 1);
 }
 
 // x, multipliers and active set from x_k + δ and W
@@ -129,20 +128,33 @@ bool IsWellFormed(const Problem& p) noexcept {
   if (n < 1 || p.H.cols() != n || p.g.size() != n || p.lb.size() != n || p.ub.size() != n)
     return false;
   if ((m > 0 && p.A.cols() != n) || p.lbA.size() != m || p.ubA.size() != m) return false;
-  // 0 · v is NaN exactly when v is NaN or ±Inf: one vectorisable pass per array
+  // 0 · v is NaN exactly when v is NaN or ±Inf: one pass per array, four partial sums
   auto finite = [](const double* v, Eigen::Index size) {
-    double z = 0.0;
-    for (Eigen::Index i = 0; i < size; ++i) z += 0.0 * v[i];
-    return z == 0.0;
+    double z0 = 0.0, z1 = 0.0, z2 = 0.0, z3 = 0.0;
+    Eigen::Index i = 0;
+    for (; i + 4 <= size; i += 4) {
+      z0 += 0.0 * v[i];
+      z1 += 0.0 * v[i + 1];
+      z2 += 0.0 * v[i + 2];
+      z3 += 0.0 * v[i + 3];
+    }
+    for (; i < size; ++i) z0 += 0.0 * v[i];
+    return (z0 + z1) + (z2 + z3) == 0.0;
   };
   if (!finite(p.H.data(), n * n) || !finite(p.g.data(), n) || !finite(p.A.data(), m * n))
     return false;
+  // symmetry, relative to max |H_ij|: columns against rows, independent per column
   double hmax = 0.0, asym = 0.0;
-  for (Eigen::Index j = 0; j < n; ++j)
+  for (Eigen::Index j = 0; j < n; ++j) {
+    const double* col = p.H.data() + j * n;
+    double cmax = 0.0, amax = 0.0;
     for (Eigen::Index i = j; i < n; ++i) {
-      hmax = std::max(hmax, std::fabs(p.H(i, j)));
-      asym = std::max(asym, std::fabs(p.H(i, j) - p.H(j, i)));
+      cmax = std::max(cmax, std::fabs(col[i]));
+      amax = std::max(amax, std::fabs(col[i] - p.H(j, i)));
     }
+    hmax = std::max(hmax, cmax);
+    asym = std::max(asym, amax);
+  }
   if (asym > 1e-10 * hmax) return false;
   for (Eigen::Index i = 0; i < n; ++i) {
     if (std::isnan(p.lb(i)) || std::isnan(p.ub(i)) || p.lb(i) > p.ub(i)) return false;
@@ -156,7 +168,23 @@ bool IsWellFormed(const Problem& p) noexcept {
 }
 
 Solver::Solver(const Settings& settings)
-    : settings_(settings), ws_(std::make_unique<internal::Workspace>()) {}
+    : settings_(settings), ws_(std::make_unique<internal::Workspace>()) {
+#if defined(HYQ_NAN_INIT)
+  // debug builds: every floating-point workspace entry starts as NaN, so that a read before a
+  // write shows in the results (house style §4)
+  internal::Workspace& w = *ws_;
+  const double nan = std::numeric_limits<double>::quiet_NaN();
+  for (auto* a : {&w.chol, &w.linv, &w.linvt, &w.mw, &w.lw, &w.square, &w.h_copy})
+    a->fill(nan);
+  for (auto* a : {&w.xk, &w.q, &w.v, &w.u, &w.delta, &w.lambda, &w.lambda_star, &w.d, &w.dw,
+                  &w.dw_inv, &w.chol_inv_diag, &w.mnew, &w.kvec, &w.tmp, &w.tmp2, &w.delta_prev})
+    a->fill(nan);
+  for (auto* a : {&w.lo, &w.hi, &w.cx, &w.cdelta, &w.cert, &w.lo_scale, &w.hi_scale,
+                  &w.lo_finite, &w.hi_finite, &w.entry_violation, &w.warm_y})
+    a->fill(nan);
+  w.a_copy.fill(nan);
+#endif
+}
 Solver::~Solver() = default;
 Solver::Solver(Solver&&) noexcept = default;
 Solver& Solver::operator=(Solver&&) noexcept = default;
@@ -167,17 +195,19 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
   const int n = static_cast<int>(p.H.rows()), m = static_cast<int>(p.A.rows());
   const bool warm = budget.warm_start && sol->x.size() == n && sol->y_bounds.size() == n &&
                     sol->y_constraints.size() == m && sol->status != Status::kBadInput;
-  // keep the warm start (previous x and signed multipliers per row) before *sol is overwritten
+  // keep the warm start (previous x, side and signed multiplier per row) before *sol is reset
   if (warm) {
+    auto side_of = [](Active a) -> std::int8_t {
+      return a == Active::kUpper ? 1 : a == Active::kLower ? -1 : a == Active::kEquality ? 2 : 0;
+    };
     for (int i = 0; i < n; ++i) {
       ws.xk[i] = sol->x(i);
-      ws.cert[i] = sol->active_bounds[i] == Active::kInactive ? 0.0 : sol->y_bounds(i);
-      ws.is_eq[i] = static_cast<std::uint8_t>(sol->active_bounds[i]);
+      ws.warm_side[i] = side_of(sol->active_bounds[i]);
+      ws.warm_y[i] = sol->y_bounds(i);
     }
     for (int k = 0; k < m; ++k) {
-      ws.cert[n + k] =
-          sol->active_constraints[k] == Active::kInactive ? 0.0 : sol->y_constraints(k);
-      ws.is_eq[n + k] = static_cast<std::uint8_t>(sol->active_constraints[k]);
+      ws.warm_side[n + k] = side_of(sol->active_constraints[k]);
+      ws.warm_y[n + k] = sol->y_constraints(k);
     }
   }
   SizeSolution(sol, n, m);
@@ -193,56 +223,71 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
   };
   if (!IsWellFormed(p)) return finish(Status::kBadInput);
 
+  // a warm start with the very same H and A keeps L and the working set of the last solve
+  const bool same_matrices =
+      warm && ws.factor_valid && ws.factor_n == n && ws.factor_m == m &&
+      std::memcmp(ws.h_copy.data(), p.H.data(), sizeof(double) * n * n) == 0 &&
+      (m == 0 || std::memcmp(ws.a_copy.data(), p.A.data(), sizeof(double) * m * n) == 0);
+
   ws.problem = &p;
   ws.n = n;
   ws.m = m;
   ws.rows = n + m;
-  // warm-start side per row: +1 upper, −1 lower, 0 none (from the saved Active codes)
-  std::array<std::int8_t, kMaxRows> side{};
-  if (warm) {
-    for (int i = 0; i < ws.rows; ++i) {
-      const auto a = static_cast<Active>(static_cast<std::int8_t>(ws.is_eq[i]));
-      side[i] = a == Active::kUpper ? 1 : a == Active::kLower ? -1 : a == Active::kEquality ? 2 : 0;
-    }
-  }
-  for (int i = 0; i < n; ++i) {
-    ws.lo[i] = p.lb(i);
-    ws.hi[i] = p.ub(i);
-  }
-  for (int k = 0; k < m; ++k) {
-    ws.lo[n + k] = p.lbA(k);
-    ws.hi[n + k] = p.ubA(k);
+  bool equalities_changed = false;
+  for (int i = 0; i < ws.rows; ++i) {
+    const double lo = i < n ? p.lb(i) : p.lbA(i - n);
+    const double hi = i < n ? p.ub(i) : p.ubA(i - n);
+    ws.lo[i] = lo;
+    ws.hi[i] = hi;
+    const std::uint8_t eq = lo == hi;
+    equalities_changed = equalities_changed || (eq != ws.is_eq[i] && ws.pos_of[i] >= 0);
+    ws.is_eq[i] = eq;
+    ws.lo_finite[i] = std::max(lo, -1e300);
+    ws.hi_finite[i] = std::min(hi, 1e300);
+    ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(ws.lo_finite[i]));
+    ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(ws.hi_finite[i]));
   }
   ws.hmax = 0.0;
-  for (int i = 0; i < ws.rows; ++i) {
-    ws.is_eq[i] = ws.lo[i] == ws.hi[i];
-    ws.pos_of[i] = -1;
-    ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(ws.lo[i]));
-    ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(ws.hi[i]));
-  }
   for (int i = 0; i < n; ++i) ws.hmax = std::max(ws.hmax, p.H(i, i));
   // proximal centre: the previous answer, or 0, clipped into the bounds
   for (int i = 0; i < n; ++i) {
     const double x0 = warm ? ws.xk[i] : 0.0;
     ws.xk[i] = std::clamp(x0, p.lb(i), p.ub(i));
   }
-
-  // H + εI = L Lᵀ with ε = 0 when H is safely positive definite
-  ws.eps = 0.0;
-  if (!internal::FactorHessian(&ws, 0.0, kPositiveDefiniteFloor)) {
-    ws.eps = settings_.proximal_weight * (ws.hmax > 0.0 ? ws.hmax : 1.0);
-    if (!internal::FactorHessian(&ws, ws.eps, 0.0)) return finish(Status::kBadInput);
-  }
   const double eps_floor = kMinRelativeEps * (ws.hmax > 0.0 ? ws.hmax : 1.0);
 
-  Linearise(&ws);
-  ws.nw = 0;
-  if (warm) {
-    for (int i = 0; i < ws.rows; ++i) {
-      if (side[i] == 0) continue;
-      const double y = ws.cert[i];
-      const int sign = side[i] == 2 ? (y < 0.0 ? -1 : 1) : side[i];
-      if (side[i] == 2 && !ws.is_eq[i]) continue;  // was an equality, is not any more
+  const bool keep = same_matrices && !equalities_changed;
+  if (keep) {
+    // rows whose active side became infinite leave W
+    for (int q = ws.nw - 1; q >= 0; --q) {
+      const int row = ws.w_row[q];
+      const double bound = ws.w_sign[q] > 0 ? ws.hi[row] : ws.lo[row];
+      if (!std::isfinite(bound)) internal::RemoveFromWorkingSet(&ws, q);
+    }
+    Linearise(&ws);
+    internal::RefreshRightHandSides(&ws);
+  } else {
+    // H + εI = L Lᵀ with ε = 0 when H is safely positive definite
+    ws.factor_valid = false;
+    ws.eps = 0.0;
+    if (!internal::FactorHessian(&ws, 0.0, kPositiveDefiniteFloor)) {
+      ws.eps = settings_.proximal_weight * (ws.hmax > 0.0 ? ws.hmax : 1.0);
+      if (!internal::FactorHessian(&ws, ws.eps, 0.0)) return finish(Status::kBadInput);
+    }
+    std::memcpy(ws.h_copy.data(), p.H.data(), sizeof(double) * n * n);
+    if (m > 0) std::memcpy(ws.a_copy.data(), p.A.data(), sizeof(double) * m * n);
+    ws.factor_valid = true;
+    ws.factor_n = n;
+    ws.factor_m = m;
+    Linearise(&ws);
+    for (int i = 0; i < ws.rows; ++i) ws.pos_of[i] = -1;
+    ws.nw = 0;
+    for (int i = 0; warm && i < ws.rows; ++i) {
+      const int side = ws.warm_side[i];
+      if (side == 0 || (side == 2 && !ws.is_eq[i])) continue;  // (no longer an equality)
+      const double y = ws.warm_y[i];
+      const int sign = side == 2 ? (y < 0.0 ? -1 : 1) : side;
+      if (!std::isfinite(sign > 0 ? ws.hi[i] : ws.lo[i])) continue;
       internal::AppendIfIndependent(&ws, i, sign, std::max(0.0, sign * y),
                                     settings_.dependence_tolerance);
     }
@@ -263,43 +308,61 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
       Linearise(&ws);
       internal::RefreshRightHandSides(&ws);
     }
+    // the subproblem: active-set iterations, then (when the KKT check fails, i.e. the rounding of
+    // an ill-conditioned H + εI shows) refinement on W; a row outside W that the refined step
+    // violates sends the active-set iteration on from there
     int inner = 0;
-    limits.max_iterations = budget.max_iterations - iterations;
-    const InnerStatus inner_status = internal::SolveSubproblem(&ws, limits, &inner);
-    iterations += inner + 1;
-    sol->iterations = iterations;
-    sol->outer_iterations = outer + 1;
-    sol->regularisation = ws.eps;
-    if (inner_status == InnerStatus::kInfeasible) {
-      // the certificate, normalised to ‖w‖∞ = 1, in place of the multipliers
-      const double wmax = std::max(MaxAbs(ws.cert.data(), ws.rows), 1e-300);
-      for (int i = 0; i < n; ++i) {
-        sol->x(i) = ws.xk[i];
-        sol->y_bounds(i) = ws.cert[i] / wmax;
+    bool scan_first = false, stop = false;
+    for (int pass = 0;; ++pass) {
+      int used = 0;
+      limits.max_iterations = budget.max_iterations - iterations - inner;
+      const InnerStatus inner_status = internal::SolveSubproblem(&ws, limits, &used, scan_first);
+      inner += used;
+      sol->iterations = iterations + inner + 1;
+      sol->outer_iterations = outer + 1;
+      sol->regularisation = ws.eps;
+      if (inner_status == InnerStatus::kInfeasible) {
+        // the certificate, normalised to ‖w‖∞ = 1, in place of the multipliers
+        const double wmax = std::max(MaxAbs(ws.cert.data(), ws.rows), 1e-300);
+        for (int i = 0; i < n; ++i) {
+          sol->x(i) = ws.xk[i];
+          sol->y_bounds(i) = ws.cert[i] / wmax;
+        }
+        for (int k = 0; k < m; ++k) sol->y_constraints(k) = ws.cert[n + k] / wmax;
+        status = Status::kInfeasible;
+        stop = true;
+        break;
       }
-      for (int k = 0; k < m; ++k) sol->y_constraints(k) = ws.cert[n + k] / wmax;
-      status = Status::kInfeasible;
-      break;
-    }
-    if (inner_status != InnerStatus::kOptimal) {
-      status = inner_status == InnerStatus::kDeadline ? Status::kDeadline
-                                                      : Status::kIterationLimit;
-      if (!have_iterate) {
-        internal::ComputeStep(&ws);
-        WriteIterate(ws, sol);
-        sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      if (inner_status != InnerStatus::kOptimal) {
+        status = inner_status == InnerStatus::kDeadline ? Status::kDeadline
+                                                        : Status::kIterationLimit;
+        if (!have_iterate) {
+          internal::ComputeStep(&ws);
+          WriteIterate(ws, sol);
+          sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+        }
+        stop = true;
+        break;
       }
-      break;
-    }
-    WriteIterate(ws, sol);
-    have_iterate = true;
-    sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
-    // iterative refinement on W when the factorisations' rounding shows (large cond(H))
-    for (int r = 0; r < kMaxRefinements && sol->kkt.max() > settings_.kkt_tolerance; ++r) {
+      WriteIterate(ws, sol);
+      have_iterate = true;
+      sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      if (sol->kkt.max() <= settings_.kkt_tolerance || pass >= kMaxRefinements) break;
+      // with ε > 0 stationarity includes the proximal term ε δ, which the next outer iteration
+      // removes; refinement is for the rows (primal, complementarity) or for ε = 0
+      const double tol = settings_.kkt_tolerance;
+      if (sol->kkt.primal <= tol && sol->kkt.complementarity <= tol && sol->kkt.dual <= tol &&
+          (ws.eps > 0.0 || sol->kkt.stationarity <= tol))
+        break;
       internal::RefineOnWorkingSet(&ws);
       WriteIterate(ws, sol);
       sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      if (sol->kkt.max() <= settings_.kkt_tolerance) break;
+      internal::ComputeRowSteps(&ws);
+      scan_first = true;
     }
+    iterations += inner + 1;
+    if (stop) break;
     if (sol->kkt.max() <= settings_.kkt_tolerance) {
       status = Status::kOptimal;
       break;
@@ -321,7 +384,9 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
     const double step = MaxAbs(ws.delta.data(), n);
     for (int i = 0; i < n; ++i) ws.xk[i] += ws.delta[i];
     // slow linear convergence (small curvature against ε on the active face): smaller ε
-    if (ws.eps > eps_floor && inner == 0 && outer > 0 && step > 0.25 * step_prev) {
+    // (or, when the active set still changes, when the steps hardly shrink at all)
+    if (ws.eps > eps_floor && outer > 0 &&
+        ((inner == 0 && step > 0.25 * step_prev) || (outer > 2 && step > 0.5 * step_prev))) {
       const double eps_new = std::max(eps_floor, ws.eps * kEpsReduction);
       if (internal::FactorHessian(&ws, eps_new, 0.0)) {
         ws.eps = eps_new;

@@ -41,10 +41,15 @@ struct Workspace {
 
   // H + eps I = L Lᵀ, L lower triangular, stored row-major: L(i, k) = chol[i * kN + k]
   std::array<double, kN * kN> chol{};
-  // the same L column by column, cholt[k * kN + i] = L(i, k), for the Lᵀ solves in dot form
-  std::array<double, kN * kN> cholt{};
+  // L⁻¹ (lower triangular, row-major: linv[i * kN + j] = (L⁻¹)(i, j)) and 1 / L(i, i): with the
+  // inverse, L⁻¹ c and L⁻ᵀ c are matrix-vector products whose rows are independent, instead of
+  // triangular solves whose every step waits for the previous one
+  std::array<double, kN * kN> linv{};
+  std::array<double, kN * kN> linvt{};  // the same transposed: linvt[j * kN + i] = (L⁻¹)(i, j)
+  std::array<double, kN> chol_inv_diag{};
   // 1 / (1 + |bound|) per row and side, to rank violations without dividing
   std::array<double, kMaxRows> lo_scale{}, hi_scale{};
+  std::array<double, kMaxRows> lo_finite{}, hi_finite{};  // lo, hi with ±inf as ∓1e300
 
   // proximal centre x_k, its row values C x_k, gradient q = H x_k + g, v = L⁻¹ q
   std::array<double, kN> xk{}, q{}, v{};
@@ -65,13 +70,22 @@ struct Workspace {
 
   // K = M_W M_Wᵀ = Lw Dw Lwᵀ, Lw unit lower triangular, row-major: Lw(p, q) = lw[p * kN + q]
   std::array<double, kN * kN> lw{};
-  std::array<double, kN> dw{};
+  std::array<double, kN> dw{}, dw_inv{};
 
   // scratch
   std::array<double, kN> mnew{}, kvec{}, tmp{}, tmp2{}, delta_prev{};
   std::array<double, kMaxRows> cert{};  // signed Farkas multipliers over rows
   std::array<std::uint8_t, kMaxRows> skipped{}, dependent_entries{};  // per subproblem
+  std::array<double, kMaxRows> entry_violation{};  // at the last dependent entry
   std::array<double, kN * kN> square{};  // a full working set's rows, for a direct solve
+
+  // the H and A that L and W belong to: a warm start with the same matrices keeps them
+  bool factor_valid = false;
+  int factor_n = 0, factor_m = 0;
+  std::array<double, kN * kN> h_copy{};
+  std::array<double, kMaxConstraints * kN> a_copy{};
+  std::array<std::int8_t, kMaxRows> warm_side{};  // +1, −1, 2 (equality), 0 from a Solution
+  std::array<double, kMaxRows> warm_y{};
 };
 
 /// out = A x (m entries, overwritten), four columns of A per pass over out.
