@@ -25,7 +25,7 @@ struct CycleDynamics {
   MatrixV M;             // joint-space inertia (CRBA)
   VectorV bias;          // h = C v + g (RNEA)
   MassMatrixFactor factor;
-  InverseBlocks inv;     // D, E, F, A⁻¹, A⁻¹B, F⁻¹
+  InverseBlocks inv;     // A⁻¹, A⁻¹B, F⁻¹ (D, E, F on demand: ComputeMinvBlocks)
   CrbaWorkspace crba_ws;
   RneaWorkspace rnea_ws;
 };

@@ -38,8 +38,7 @@ void SolveInPlace(const MassMatrixFactor& f, VectorV* b) {
   b->head<kB>() = x_b;
 }
 
-void ComputeInverseBlocks(const MatrixV& M, const MassMatrixFactor& f, InverseBlocks* out) {
-  const auto B = M.topRightCorner<kB, kNumJoints>();
+void ComputeMinvBlocks(const MassMatrixFactor& f, MinvBlocks* out) {
   // D = Ā⁻¹,  E = −D Y   (14)
   out->D = f.llt_Abar.solve(Matrix6d::Identity());
   out->E.noalias() = -out->D * f.Y;
@@ -49,6 +48,10 @@ void ComputeInverseBlocks(const MatrixV& M, const MassMatrixFactor& f, InverseBl
     const int o = kL * leg;
     out->F.block<kL, kL>(o, o) += f.llt_C[leg].solve(Eigen::Matrix3d::Identity());
   }
+}
+
+void ComputeInverseBlocks(const MatrixV& M, const MassMatrixFactor& f, InverseBlocks* out) {
+  const auto B = M.topRightCorner<kB, kNumJoints>();
   // A⁻¹, A⁻¹ B, and F⁻¹ = C − Bᵀ A⁻¹ B (Schur complement of A)
   out->A_inv = f.llt_A.solve(Matrix6d::Identity());
   out->A_inv_B.noalias() = out->A_inv * B;

@@ -35,14 +35,19 @@ struct MassMatrixFactor {
   Eigen::LLT<Matrix6d> llt_A;
 };
 
-/// The inverse blocks of eq 14, plus A⁻¹, A⁻¹B and F⁻¹.
+/// What the contact ID uses every cycle: A⁻¹, A⁻¹B and F⁻¹ (then Z = A⁻¹R_b, E F⁻¹ = −A⁻¹B,
+/// and [D E], [Eᵀ F] applied to a vector through SolveInPlace).
 struct InverseBlocks {
-  Matrix6d D;
-  BaseJointMatrix E;
-  JointMatrix F;
   Matrix6d A_inv;
   BaseJointMatrix A_inv_B;
   JointMatrix F_inv;
+};
+
+/// The blocks of M⁻¹ themselves (eq 14), on demand (tests, tools): not needed per cycle.
+struct MinvBlocks {
+  Matrix6d D;
+  BaseJointMatrix E;
+  JointMatrix F;
 };
 
 /// Factors M. Returns kNotPositiveDefinite (and leaves `out` unusable) when a pivot fails.
@@ -52,7 +57,10 @@ FactorStatus FactorMassMatrix(const MatrixV& M, MassMatrixFactor* out);
 /// Solves M x = b in place (b ← M⁻¹ b) with a completed factorisation. Allocates nothing.
 void SolveInPlace(const MassMatrixFactor& factor, VectorV* b);
 
-/// D, E, F, A⁻¹, A⁻¹B and F⁻¹ from M and its factorisation. Allocates nothing.
+/// A⁻¹, A⁻¹B and F⁻¹ from M and its factorisation. Allocates nothing.
 void ComputeInverseBlocks(const MatrixV& M, const MassMatrixFactor& factor, InverseBlocks* out);
+
+/// D, E and F (eq 14) from the factorisation. Allocates nothing.
+void ComputeMinvBlocks(const MassMatrixFactor& factor, MinvBlocks* out);
 
 }  // namespace hyq::dynamics

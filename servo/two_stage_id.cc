@@ -260,10 +260,13 @@ bool TwoStageId::BuildNullSpace() noexcept {
   P_.setZero(nz, null_dim_);
   int col = 0;
   if (liftable && internal > 0) {
-    Qw_ = qr_.householderQ();
+    // the trailing columns of Q only: Q [0; I] (cheaper than evaluating all of Q)
+    Qw_.setZero(3 * nc, internal);
+    Qw_.bottomRows(internal).setIdentity();
+    qr_.householderQ().applyThisOnTheLeft(Qw_);
     // f_i = a n + b t1 + c t2 lifts to z_N = a, z_D,k = (2/r)(b cos θ_k + c sin θ_k)
     for (int j = 0; j < internal; ++j, ++col) {
-      const auto f = Qw_.col(3 * nc - internal + j);
+      const auto f = Qw_.col(j);
       for (int i = 0; i < nc; ++i) {
         const Eigen::Vector3d fi = f.segment<3>(3 * i);
         P_(set_.NormalIndex(i), col) = set_.normal_W[i].dot(fi);

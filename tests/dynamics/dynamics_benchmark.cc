@@ -81,7 +81,18 @@ void BM_InverseBlocks(benchmark::State& state) {
 }
 BENCHMARK(BM_InverseBlocks);
 
-// "full dynamics per cycle": FK, M, bias, four foot Jacobians (+ J̇v), factorisation, M⁻¹ blocks
+void BM_MinvBlocksOnDemand(benchmark::State& state) {
+  Fixture f;
+  MinvBlocks blocks;
+  for (auto _ : state) {
+    ComputeMinvBlocks(f.d->factor, &blocks);
+    benchmark::DoNotOptimize(blocks);
+  }
+}
+BENCHMARK(BM_MinvBlocksOnDemand);
+
+// "full dynamics per cycle": FK, M, bias, four foot Jacobians (+ J̇v), factorisation, and the
+// M⁻¹ blocks the contact ID uses (A⁻¹, A⁻¹B, F⁻¹)
 void BM_FullDynamicsPerCycle(benchmark::State& state) {
   Fixture f;
   std::size_t i = 0;

@@ -191,15 +191,20 @@ TEST_F(Dynamics, FactorisationAndInverseBlocksMatchDenseInverse) {
     const auto d = Compute(st.q, st.v);
     const MatrixV Minv = d->M.inverse();
     const double tol = 1e-9;
-    EXPECT_TRUE(NearRel(d->inv.D, Matrix6d(Minv.topLeftCorner<6, 6>()), tol));
-    EXPECT_TRUE(NearRel(d->inv.E, BaseJointMatrix(Minv.topRightCorner<6, 12>()), tol));
-    EXPECT_TRUE(NearRel(d->inv.F, JointMatrix(Minv.bottomRightCorner<12, 12>()), tol));
+    MinvBlocks blocks;
+    ComputeMinvBlocks(d->factor, &blocks);
+    EXPECT_TRUE(NearRel(blocks.D, Matrix6d(Minv.topLeftCorner<6, 6>()), tol));
+    EXPECT_TRUE(NearRel(blocks.E, BaseJointMatrix(Minv.topRightCorner<6, 12>()), tol));
+    EXPECT_TRUE(NearRel(blocks.F, JointMatrix(Minv.bottomRightCorner<12, 12>()), tol));
     EXPECT_TRUE(NearRel(d->inv.A_inv, Matrix6d(d->M.topLeftCorner<6, 6>().inverse()), tol));
     const JointMatrix F_inv_dense = Minv.bottomRightCorner<12, 12>().inverse();
     EXPECT_TRUE(NearRel(d->inv.F_inv, F_inv_dense, tol));
     // E F⁻¹ = −A⁻¹ B, the identity Stage I relies on (Zapolsky et al. eqs 21–22)
-    EXPECT_TRUE(NearRel(BaseJointMatrix(d->inv.E * d->inv.F_inv),
+    EXPECT_TRUE(NearRel(BaseJointMatrix(blocks.E * d->inv.F_inv),
                         BaseJointMatrix(-d->inv.A_inv_B), tol));
+    // [D E] − E F⁻¹ [Eᵀ F] = [A⁻¹ 0]  (the Z of eq 21 is A⁻¹ R_b)
+    EXPECT_TRUE(NearRel(Matrix6d(blocks.D - blocks.E * d->inv.F_inv * blocks.E.transpose()),
+                        d->inv.A_inv, tol));
     VectorV b = VectorV::LinSpaced(-1.0, 2.0);
     const VectorV x_dense = d->M.llt().solve(b);
     SolveInPlace(d->factor, &b);
