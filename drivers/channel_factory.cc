@@ -164,3 +164,19 @@ std::unique_ptr<hal::CanChannel> OpenChannel(std::string_view spec) {
 }
 
 }  // namespace hyq::drivers
+
+namespace hyq::drivers {
+
+std::string SpecForInterface(std::string_view interface) {
+  for (std::string_view prefix : {"socketcan", "udp", "replay"})
+    if (interface.substr(0, prefix.size()) == prefix) return std::string(interface);
+  return "socketcan:" + std::string(interface);
+}
+
+int ReceiveFd(const hal::CanChannel& channel) noexcept {
+  if (const auto* u = dynamic_cast<const UdpMulticastChannel*>(&channel)) return u->receive_fd();
+  if (const auto* s = dynamic_cast<const SocketCanChannel*>(&channel)) return s->receive_fd();
+  return -1;
+}
+
+}  // namespace hyq::drivers

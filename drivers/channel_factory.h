@@ -48,3 +48,14 @@ std::unique_ptr<hal::CanChannel> OpenChannel(std::string_view spec);
 std::unique_ptr<hal::CanChannel> OpenChannel(const ChannelSpec& spec);
 
 }  // namespace hyq::drivers
+
+namespace hyq::drivers {
+
+/// The spec for a bus interface as written in the HAL configuration: "can0" / "vcan1" (a bare
+/// interface name) means "socketcan:can0"; anything with a driver prefix is used as it is.
+std::string SpecForInterface(std::string_view interface);
+
+/// The file descriptor to poll() for received frames, or -1 when the channel has none (replay).
+int ReceiveFd(const hal::CanChannel& channel) noexcept;
+
+}  // namespace hyq::drivers

@@ -1,21 +1,28 @@
 // hyq-can-emulator: HyQ's actuator boards and IMU on CAN (hal::Emulator).
 //
-// Until the drivers library is wired in (SocketCAN / UDP multicast channels from drivers/, one per
-// configured bus interface), the only transport is --loopback: the emulator and a HAL master run
-// in this process over in-memory buses, in real time at the configured SYNC period, and the tool
-// prints the bring-up report and the counters. That is a self-test of the protocol and of the
-// fault injection, and the skeleton the drivers-backed mode plugs into (OpenDeviceChannels).
+// Default: the emulated devices answer on the configured buses (each bus's `interface`, opened
+// with drivers::OpenChannel: "vcan0" → SocketCAN, "udp::43113" → the python-can compatible
+// virtual bus; --interface BUS=SPEC overrides one), driven by whoever sends NMT and SYNC — the
+// daemon, a python-can script, cansend. --loopback instead runs the emulator and a HAL master in
+// this process over in-memory buses (a self-test of the protocol and the fault injection).
+#include <poll.h>
+#include <signal.h>
 #include <time.h>
 
+#include <atomic>
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <limits>
+#include <map>
 #include <memory>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "config/hal_config_loader.h"
+#include "drivers/channel_factory.h"
 #include "hal/emulator.h"
 #include "hal/hal.h"
 #include "hal/loopback_bus.h"
@@ -23,8 +30,9 @@
 namespace {
 
 struct Options {
-  std::string config = "config/hyq_hal.yaml";
-  double seconds = 2.0;
+  std::string config = HYQ_DEFAULT_HAL_CONFIG;
+  std::map<std::string, std::string> interfaces;  // bus name → channel spec
+  double seconds = 0.0;  // 0: until SIGINT / SIGTERM (devices mode); loopback default 2 s
   bool loopback = false;
   double drop_probability = 0.0;
   int silent_joint = -1;
@@ -32,11 +40,17 @@ struct Options {
 
 [[noreturn]] void Usage(int code) {
   std::fprintf(code == 0 ? stdout : stderr,
-               "usage: hyq-can-emulator --loopback [--config FILE] [--seconds S]\n"
-               "                        [--drop-probability P] [--silent-joint NAME]\n"
+               "usage: hyq-can-emulator [--config FILE] [--interface BUS=SPEC]... [--seconds S]\n"
+               "                        [--drop-probability P] [--silent-joint NAME] [--loopback]\n"
+               "HyQ's 12 actuator boards and IMU, answering NMT, SYNC and RPDOs on the configured\n"
+               "CAN buses until SIGINT/SIGTERM, then printing their counters.\n"
+               "  --config FILE         HAL configuration (default " HYQ_DEFAULT_HAL_CONFIG
+               ")\n"
+               "  --interface BUS=SPEC  open bus BUS on SPEC (socketcan:vcan0, udp::43113, ...;\n"
+               "                        docs/drivers.md) instead of its configured interface\n"
+               "  --seconds S           stop after S seconds (default: run until a signal;\n"
+               "                        2 with --loopback)\n"
                "  --loopback            emulator + HAL master in this process (self-test)\n"
-               "  --config FILE         HAL configuration (default config/hyq_hal.yaml)\n"
-               "  --seconds S           run time (default 2)\n"
                "  --drop-probability P  every board drops each TPDO with probability P\n"
                "  --silent-joint NAME   this joint's board never answers (e.g. lh_kfe_joint)\n");
   std::exit(code);
@@ -50,10 +64,31 @@ Options Parse(int argc, char** argv) {
       if (i + 1 >= argc) Usage(2);
       return argv[++i];
     };
-    if (a == "--loopback") o.loopback = true;
-    else if (a == "--config") o.config = value();
-    else if (a == "--seconds") o.seconds = std::stod(value());
-    else if (a == "--drop-probability") o.drop_probability = std::stod(value());
+    if (a == "--loopback")
+      o.loopback = true;
+    else if (a == "--interface") {
+      const std::string v = value();
+      const auto eq = v.find('=');
+      if (eq == std::string::npos || eq == 0) {
+        std::fprintf(stderr, "hyq-can-emulator: --interface: expected BUS=SPEC, found '%s'\n",
+                     v.c_str());
+        std::exit(2);
+      }
+      o.interfaces[v.substr(0, eq)] = v.substr(eq + 1);
+    } else if (a == "--config")
+      o.config = value();
+    else if (a == "--seconds") {
+      const std::string v = value();
+      char* end = nullptr;
+      o.seconds = std::strtod(v.c_str(), &end);
+      if (*end != '\0' || !(o.seconds > 0.0)) {
+        std::fprintf(stderr,
+                     "hyq-can-emulator: --seconds: expected a positive number, found '%s'\n",
+                     v.c_str());
+        std::exit(2);
+      }
+    } else if (a == "--drop-probability")
+      o.drop_probability = std::stod(value());
     else if (a == "--silent-joint") {
       const std::string name = value();
       o.silent_joint = hyq::hal::JointIndex(name);
@@ -61,8 +96,10 @@ Options Parse(int argc, char** argv) {
         std::fprintf(stderr, "hyq-can-emulator: unknown joint '%s'\n", name.c_str());
         std::exit(2);
       }
-    } else if (a == "-h" || a == "--help") Usage(0);
-    else Usage(2);
+    } else if (a == "-h" || a == "--help")
+      Usage(0);
+    else
+      Usage(2);
   }
   return o;
 }
@@ -79,6 +116,59 @@ void SleepUntil(std::int64_t t_ns) {
   t.tv_nsec = t_ns % 1'000'000'000;
   while (clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, nullptr) != 0) {
   }
+}
+
+std::atomic<bool> g_stop{false};
+void OnSignal(int) { g_stop = true; }
+
+void PrintEmulatorCounters(const hyq::hal::Emulator& emu, const hyq::hal::HalConfig& cfg) {
+  for (std::size_t b = 0; b < cfg.buses.size(); ++b) {
+    const auto& c = emu.counters(static_cast<int>(b));
+    std::printf(
+        "bus %-3s emulator: rx %llu tx %llu syncs %llu rpdos %llu malformed %llu dropped %llu "
+        "corrupted %llu tx_failed %llu\n",
+        cfg.buses[b].name.c_str(), static_cast<unsigned long long>(c.rx_frames),
+        static_cast<unsigned long long>(c.tx_frames), static_cast<unsigned long long>(c.syncs),
+        static_cast<unsigned long long>(c.rpdos), static_cast<unsigned long long>(c.malformed_rx),
+        static_cast<unsigned long long>(c.dropped), static_cast<unsigned long long>(c.corrupted),
+        static_cast<unsigned long long>(c.tx_failed));
+  }
+}
+
+// The devices on real (or virtual) buses, until a signal or --seconds.
+int RunDevices(const Options& o, hyq::hal::HalConfig cfg) {
+  using namespace hyq::hal;
+  std::vector<std::unique_ptr<CanChannel>> owned;
+  std::vector<CanChannel*> channels;
+  std::vector<pollfd> fds;
+  for (BusConfig& b : cfg.buses) {
+    const auto it = o.interfaces.find(b.name);
+    const std::string spec =
+        hyq::drivers::SpecForInterface(it != o.interfaces.end() ? it->second : b.interface);
+    owned.push_back(hyq::drivers::OpenChannel(spec));
+    channels.push_back(owned.back().get());
+    const int fd = hyq::drivers::ReceiveFd(*owned.back());
+    if (fd >= 0) fds.push_back({fd, POLLIN, 0});
+    std::printf("bus %-3s on %s\n", b.name.c_str(), spec.c_str());
+  }
+  Emulator emu(cfg, channels);
+  for (int j = 0; j < kNumJoints; ++j) {
+    emu.joint_faults(j).drop_probability = o.drop_probability;
+    if (j == o.silent_joint) emu.joint_faults(j).silent = true;
+  }
+  signal(SIGINT, OnSignal);
+  signal(SIGTERM, OnSignal);
+  const std::int64_t start = Now();
+  const auto end = o.seconds > 0 ? start + static_cast<std::int64_t>(o.seconds * 1e9)
+                                 : std::numeric_limits<std::int64_t>::max();
+  std::fflush(stdout);
+  while (!g_stop && Now() < end) {
+    // wake on any received frame, and at least every 1 ms for heartbeats and delayed frames
+    if (poll(fds.data(), fds.size(), 1) < 0 && errno != EINTR) break;
+    emu.Poll(Now());
+  }
+  PrintEmulatorCounters(emu, cfg);
+  return 0;
 }
 
 int RunLoopback(const Options& o, const hyq::hal::HalConfig& cfg) {
@@ -106,7 +196,8 @@ int RunLoopback(const Options& o, const hyq::hal::HalConfig& cfg) {
     emu.joint_faults(j).drop_probability = o.drop_probability;
     if (j == o.silent_joint) emu.joint_faults(j).silent = true;
   }
-  const auto cycles = static_cast<long>(o.seconds / cfg.timing.cycle_period_s);
+  const double seconds = o.seconds > 0 ? o.seconds : 2.0;
+  const auto cycles = static_cast<long>(seconds / cfg.timing.cycle_period_s);
   long not_ok = 0;
   for (long k = 0; k < cycles; ++k) {
     emu.Poll(now);
@@ -120,15 +211,14 @@ int RunLoopback(const Options& o, const hyq::hal::HalConfig& cfg) {
   std::printf("%ld cycles, %ld with a fault status\n", cycles, not_ok);
   for (std::size_t b = 0; b < hal.num_buses(); ++b) {
     const BusCounters& c = hal.bus(b).counters();
-    std::printf("bus %-3s rx %llu tx %llu wkc_faults %llu missing %llu late %llu duplicate %llu "
-                "malformed %llu emcy %llu\n",
-                hal.bus(b).config().name.c_str(), static_cast<unsigned long long>(c.rx_frames),
-                static_cast<unsigned long long>(c.tx_frames),
-                static_cast<unsigned long long>(c.wkc_faults),
-                static_cast<unsigned long long>(c.missing), static_cast<unsigned long long>(c.late),
-                static_cast<unsigned long long>(c.duplicate),
-                static_cast<unsigned long long>(c.malformed),
-                static_cast<unsigned long long>(c.emcy));
+    std::printf(
+        "bus %-3s rx %llu tx %llu wkc_faults %llu missing %llu late %llu duplicate %llu "
+        "malformed %llu emcy %llu\n",
+        hal.bus(b).config().name.c_str(), static_cast<unsigned long long>(c.rx_frames),
+        static_cast<unsigned long long>(c.tx_frames), static_cast<unsigned long long>(c.wkc_faults),
+        static_cast<unsigned long long>(c.missing), static_cast<unsigned long long>(c.late),
+        static_cast<unsigned long long>(c.duplicate), static_cast<unsigned long long>(c.malformed),
+        static_cast<unsigned long long>(c.emcy));
   }
   std::printf("%s\n", hal.BringUpReport(now).c_str());
   return hal.AllIn(DeviceState::kOp) ? 0 : 1;
@@ -140,12 +230,7 @@ int main(int argc, char** argv) {
   const Options o = Parse(argc, argv);
   try {
     const hyq::hal::HalConfig cfg = hyq::config::LoadHalConfig(o.config);
-    if (!o.loopback) {
-      std::fprintf(stderr, "hyq-can-emulator: only --loopback is available until the drivers "
-                           "library (SocketCAN, UDP multicast) is linked in\n");
-      return 2;
-    }
-    return RunLoopback(o, cfg);
+    return o.loopback ? RunLoopback(o, cfg) : RunDevices(o, cfg);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hyq-can-emulator: %s\n", e.what());
     return 1;
