@@ -1,0 +1,199 @@
+#include "tools/sim/plant.h"
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <sstream>
+
+#include <Eigen/Geometry>
+#include <mujoco/mujoco.h>
+
+namespace hyq::sim {
+namespace {
+
+// Contact settings that give Coulomb friction (docs/simulation.md; DESIGN §7, measured): an
+// elliptic cone with a high impedance ratio, a stiff floor, the floor's friction used.
+constexpr const char* kFloorContact = "solref=\"0.005 1\" solimp=\"0.9 0.99 0.001\"";
+
+std::string Vec(const Eigen::Vector3d& v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << v.x() << ' ' << v.y() << ' ' << v.z();
+  return s.str();
+}
+
+std::string Quat(const Eigen::Matrix3d& R) {
+  const Eigen::Quaterniond q(R);
+  std::ostringstream s;
+  s.precision(17);
+  s << q.w() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z();
+  return s.str();
+}
+
+std::string FullInertia(const Eigen::Matrix3d& I) {
+  std::ostringstream s;
+  s.precision(17);
+  s << I(0, 0) << ' ' << I(1, 1) << ' ' << I(2, 2) << ' ' << I(0, 1) << ' ' << I(0, 2) << ' '
+    << I(1, 2);
+  return s.str();
+}
+
+double FootMu(const PlantConfig& c, int f) { return c.foot_mu[f] >= 0 ? c.foot_mu[f] : c.ground_mu; }
+
+}  // namespace
+
+std::string CoulombFloorMjcf(double mu) {
+  std::ostringstream x;
+  x << "<geom name=\"floor\" type=\"plane\" size=\"0 0 1\" contype=\"0\" conaffinity=\"2\" "
+    << "priority=\"1\" condim=\"3\" friction=\"" << mu << " 0.005 0.0001\" " << kFloorContact
+    << "/>";
+  return x.str();
+}
+
+std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config) {
+  using dynamics::kNumBodies;
+  std::ostringstream x;
+  x.precision(17);
+  x << "<mujoco model=\"hyq\">\n"
+    << "  <compiler angle=\"radian\" inertiafromgeom=\"false\" balanceinertia=\"false\"/>\n"
+    << "  <option timestep=\"" << config.timestep_s
+    << "\" cone=\"elliptic\" impratio=\"100\"/>\n"
+    // the robot's own geoms collide only with the floor (contype 2 → floor conaffinity 2); the
+    // feet touch the floor through explicit pairs that carry their friction
+    << "  <default><geom contype=\"2\" conaffinity=\"0\" condim=\"3\"/></default>\n"
+    << "  <worldbody>\n    " << CoulombFloorMjcf(config.ground_mu) << "\n";
+  // bodies, depth first (parents precede children in the model)
+  std::array<int, kNumBodies> depth{};
+  std::function<void(int, int)> emit = [&](int b, int indent) {
+    const dynamics::Body& body = model.bodies[b];
+    const std::string pad(static_cast<std::size_t>(indent), ' ');
+    if (b == dynamics::kTrunk) {
+      x << pad << "<body name=\"" << body.name << "\" pos=\"0 0 " << model.standing_base_height_m
+        << "\">\n"
+        << pad << "  <freejoint name=\"floating_base\"/>\n"
+        << pad << "  <geom name=\"trunk\" type=\"box\" size=\"0.465 0.175 0.1\"/>\n"
+        << pad << "  <site name=\"imu\" pos=\"" << Vec(model.imu.p_BF_B) << "\" quat=\""
+        << Quat(model.imu.R_BF) << "\"/>\n";
+    } else {
+      const int j = b - 1;
+      const auto& lim = model.limits[j];
+      x << pad << "<body name=\"" << body.name << "\" pos=\"" << Vec(body.p_PJ_P) << "\" quat=\""
+        << Quat(body.R_PJ) << "\">\n"
+        << pad << "  <joint name=\"" << model.joint_names[j] << "\" type=\"hinge\" axis=\""
+        << Vec(body.axis_B) << "\" limited=\"true\" range=\"" << lim.lower_rad << ' '
+        << lim.upper_rad << "\"/>\n";
+      const int k = j % dynamics::kJointsPerLeg;
+      if (k == 1) x << pad << "  <geom type=\"capsule\" fromto=\"0.05 0 0 0.3 0 0\" size=\"0.03\"/>\n";
+      if (k == 2) {
+        x << pad << "  <geom type=\"capsule\" fromto=\"0.05 0 0 0.3 0 0\" size=\"0.02\"/>\n";
+        const dynamics::FootFrame& foot = model.feet[j / dynamics::kJointsPerLeg];
+        x << pad << "  <geom name=\"" << foot.name << "\" type=\"sphere\" size=\"" << foot.radius_m
+          << "\" pos=\"" << Vec(foot.p_BF_B) << "\" contype=\"0\" conaffinity=\"0\"/>\n";
+      }
+    }
+    const auto& in = body.inertia;
+    x << pad << "  <inertial pos=\"" << Vec(in.p_BoBcm_B) << "\" mass=\"" << in.mass
+      << "\" fullinertia=\"" << FullInertia(in.I_Bcm_B) << "\"/>\n";
+    for (int c = 0; c < kNumBodies; ++c)
+      if (model.bodies[c].parent == b) emit(c, indent + 2);
+    x << pad << "</body>\n";
+  };
+  (void)depth;
+  emit(dynamics::kTrunk, 4);
+  x << "  </worldbody>\n  <contact>\n";
+  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+    const double mu = FootMu(config, f);
+    x << "    <pair name=\"" << model.feet[f].name << "_floor\" geom1=\"floor\" geom2=\""
+      << model.feet[f].name << "\" condim=\"3\" friction=\"" << mu << ' ' << mu
+      << " 0.005 0.0001 0.0001\" " << kFloorContact << "/>\n";
+  }
+  x << "  </contact>\n  <actuator>\n";
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const double e = model.limits[j].effort_Nm;
+    x << "    <motor name=\"" << model.joint_names[j] << "\" joint=\"" << model.joint_names[j]
+      << "\" ctrllimited=\"true\" ctrlrange=\"" << -e << ' ' << e << "\"/>\n";
+  }
+  x << "  </actuator>\n</mujoco>\n";
+  return x.str();
+}
+
+Plant::Plant(const dynamics::Model& model, const PlantConfig& config)
+    : mjcf_(MakeMjcf(model, config)) {
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
+  if (mj_makeEmptyFileVFS(&vfs, "hyq.xml", static_cast<int>(mjcf_.size())) != 0)
+    throw PlantError("MuJoCo: cannot create the in-memory model file");
+  std::memcpy(vfs.filedata[mj_findFileVFS(&vfs, "hyq.xml")], mjcf_.data(), mjcf_.size());
+  char error[1000] = "";
+  m_ = mj_loadXML("hyq.xml", &vfs, error, sizeof(error));
+  mj_deleteVFS(&vfs);
+  if (m_ == nullptr) throw PlantError(std::string("MuJoCo rejected the generated model: ") + error);
+  d_ = mj_makeData(m_);
+  floor_geom_ = mj_name2id(m_, mjOBJ_GEOM, "floor");
+  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+    foot_geom_[f] = mj_name2id(m_, mjOBJ_GEOM, model.feet[f].name.c_str());
+    foot_pair_[f] = mj_name2id(m_, mjOBJ_PAIR, (model.feet[f].name + "_floor").c_str());
+    foot_body_[f] = m_->geom_bodyid[foot_geom_[f]];
+  }
+  Reset(model.StandingQ(), dynamics::VectorV::Zero());
+}
+
+Plant::~Plant() {
+  if (d_ != nullptr) mj_deleteData(d_);
+  if (m_ != nullptr) mj_deleteModel(m_);
+}
+
+void Plant::Reset(const dynamics::VectorQ& q, const dynamics::VectorV& v) {
+  mj_resetData(m_, d_);
+  Eigen::Map<dynamics::VectorQ>(d_->qpos) = q;
+  Eigen::Map<dynamics::VectorV>(d_->qvel) = v;
+  mj_forward(m_, d_);
+}
+
+void Plant::Step(const dynamics::VectorJ& tau_Nm) {
+  for (int j = 0; j < dynamics::kNumJoints; ++j) d_->ctrl[j] = tau_Nm(j);
+  mj_step(m_, d_);
+}
+
+dynamics::VectorQ Plant::q() const { return Eigen::Map<const dynamics::VectorQ>(d_->qpos); }
+dynamics::VectorV Plant::v() const { return Eigen::Map<const dynamics::VectorV>(d_->qvel); }
+double Plant::time() const { return d_->time; }
+
+void Plant::SetFootFriction(int foot, double mu) {
+  m_->pair_friction[5 * foot_pair_[foot] + 0] = mu;
+  m_->pair_friction[5 * foot_pair_[foot] + 1] = mu;
+}
+double Plant::foot_friction(int foot) const { return m_->pair_friction[5 * foot_pair_[foot]]; }
+
+std::array<FootContact, 4> Plant::FootContacts() const {
+  std::array<FootContact, 4> out{};
+  for (int i = 0; i < d_->ncon; ++i) {
+    const mjContact& c = d_->contact[i];
+    for (int f = 0; f < dynamics::kNumFeet; ++f) {
+      if (!((c.geom1 == floor_geom_ && c.geom2 == foot_geom_[f]) ||
+            (c.geom2 == floor_geom_ && c.geom1 == foot_geom_[f])))
+        continue;
+      mjtNum local[6];
+      mj_contactForce(m_, d_, i, local);
+      // the contact frame's rows are its axes (normal first), pointing from geom1 to geom2; the
+      // force is the one geom1 exerts on geom2
+      const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> frame(c.frame);
+      Eigen::Vector3d f_W = frame.transpose() * Eigen::Vector3d(local[0], local[1], local[2]);
+      if (c.geom1 == foot_geom_[f]) f_W = -f_W;
+      out[f].touching = true;
+      out[f].force_W += f_W;
+      // velocity of the foot's material point at the contact
+      mjtNum vel[6];
+      mj_objectVelocity(m_, d_, mjOBJ_GEOM, foot_geom_[f], vel, 0);
+      const Eigen::Vector3d w(vel[0], vel[1], vel[2]), v_c(vel[3], vel[4], vel[5]);
+      const Eigen::Vector3d r = Eigen::Vector3d(c.pos[0], c.pos[1], c.pos[2]) -
+                                Eigen::Vector3d(d_->geom_xpos + 3 * foot_geom_[f]);
+      const Eigen::Vector3d v_p = v_c + w.cross(r);
+      const Eigen::Vector3d n(c.frame[0], c.frame[1], c.frame[2]);
+      out[f].slip_velocity_W = v_p - v_p.dot(n) * n;
+    }
+  }
+  return out;
+}
+
+}  // namespace hyq::sim

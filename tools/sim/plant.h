@@ -1,0 +1,78 @@
+// Simulated HyQ: a MuJoCo (2.2.2) model generated from the project's own model, with contact
+// that behaves like Coulomb friction (docs/simulation.md), torque actuators with HyQ's limits,
+// ground friction per run and per foot ("one foot on ice, three on rubber"). Used by
+// hyq-experiment and, through the device emulator, by the hardware-in-the-loop simulator.
+#pragma once
+
+#include <array>
+#include <memory>
+#include <string>
+
+#include "dynamics/model.h"
+
+struct mjModel_;
+struct mjData_;
+
+namespace hyq::sim {
+
+struct PlantConfig {
+  double timestep_s = 1e-3;
+  double ground_mu = 1.0;
+  /// Per-foot friction (lf, rf, lh, rh); negative: the ground's.
+  std::array<double, 4> foot_mu{-1.0, -1.0, -1.0, -1.0};
+};
+
+/// Contact force on one foot from the ground, world frame, N.
+struct FootContact {
+  bool touching = false;
+  Eigen::Vector3d force_W = Eigen::Vector3d::Zero();
+  Eigen::Vector3d slip_velocity_W = Eigen::Vector3d::Zero();  // tangential contact-point velocity
+};
+
+/// Thrown at configuration time when MuJoCo rejects the generated model.
+class PlantError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+class Plant {
+ public:
+  Plant(const dynamics::Model& model, const PlantConfig& config);
+  ~Plant();
+  Plant(const Plant&) = delete;
+  Plant& operator=(const Plant&) = delete;
+
+  /// State in the project's convention (docs/conventions.md; MuJoCo's qpos/qvel).
+  void Reset(const dynamics::VectorQ& q, const dynamics::VectorV& v);
+  /// One step with these joint torques (clamped to the actuators' ±effort limit).
+  void Step(const dynamics::VectorJ& tau_Nm);
+
+  dynamics::VectorQ q() const;
+  dynamics::VectorV v() const;
+  double time() const;
+  /// Per-foot contact with the ground at the current state.
+  std::array<FootContact, 4> FootContacts() const;
+  /// The foot's friction coefficient with the ground (changes take effect at the next step).
+  void SetFootFriction(int foot, double mu);
+  double foot_friction(int foot) const;
+
+  /// The generated MJCF (for inspection and for MuJoCo's own tools).
+  const std::string& mjcf() const { return mjcf_; }
+  const mjModel_* mj_model() const { return m_; }
+  mjData_* mj_data() { return d_; }
+
+ private:
+  std::string mjcf_;
+  mjModel_* m_ = nullptr;
+  mjData_* d_ = nullptr;
+  std::array<int, 4> foot_geom_{}, foot_pair_{}, foot_body_{};
+  int floor_geom_ = -1;
+};
+
+/// The floor geom with the contact settings that give Coulomb friction (for other models too).
+std::string CoulombFloorMjcf(double mu);
+
+/// The MJCF for the model and contact settings (exposed for tests and tools).
+std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config);
+
+}  // namespace hyq::sim
