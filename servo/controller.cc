@@ -68,7 +68,7 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
   input_.stance = ref.stance;
   input_.mu = env.mu;
   input_.normal_W = env.normal_W;
-  input_.dt = dt;
+  input_.dt = config_.id.horizon_s > 0.0 ? config_.id.horizon_s : dt;
   IdStatus st = IdStatus::kBadInput;
   switch (config_.kind) {
     case ControllerKind::kNoSlipId: st = noslip_.Solve(model_, dyn, input_, out); break;

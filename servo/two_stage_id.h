@@ -57,6 +57,10 @@ const char* ToString(StageOneObjective o) noexcept;
 
 struct TwoStageSettings {
   StageOneObjective objective = StageOneObjective::kMaximumDissipation;
+  /// The h of eqs 5–6 used by the controllers (servo/controller.h), s; 0: the control period.
+  /// The method corrects contact-point velocities within h, so h = 1 ms makes a very stiff
+  /// loop on compliant contact (docs/inverse_dynamics.md, "Horizon").
+  double horizon_s = 0.0;
   int tangent_directions = 4;   // r
   bool stage2 = true;           // false: the paper's "Stage I only" (Fig. 1)
   int max_iterations = 200;     // Stage I QP

@@ -1,0 +1,159 @@
+// hyq-experiment: the paper's simulated experiments (section 3) on the MuJoCo HyQ with the
+// controllers the daemon runs; CSV time series, a results table (Markdown and JSON) beside the
+// paper's numbers, and (tools/hyq-experiment/plot.py) the figures. docs/experiments.md.
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "dynamics/urdf_loader.h"
+#include "tools/sim/experiment.h"
+
+namespace {
+
+using namespace hyq;
+using servo::ControllerKind;
+
+constexpr std::string_view kUsage =
+    "usage: hyq-experiment [--all | --scenario NAME]... [--out DIR] [--list] [--help]\n"
+    "\n"
+    "Runs the paper's simulated experiments on the MuJoCo HyQ: trot and one Figure-Eight cycle on\n"
+    "mu = 0.1 and 1.0 with PID, no-slip ID and the two-stage ID (same PD gains), Stage I only vs\n"
+    "Stage I + II through contact changes (Fig. 1), and 60 s of trotting for the solve times.\n"
+    "Writes DIR/<scenario>.csv, DIR/results.json and DIR/results.md (default DIR: experiments).\n"
+    "Plot with: /usr/bin/python3 tools/hyq-experiment/plot.py DIR\n"
+    "\n"
+    "  --all            every scenario (about a minute)\n"
+    "  --scenario NAME  one scenario (repeatable); --list shows the names\n"
+    "  --out DIR        output folder\n";
+
+struct Scenario {
+  std::string name;
+  sim::ExperimentConfig cfg;
+};
+
+std::vector<Scenario> Scenarios() {
+  std::vector<Scenario> all;
+  const std::pair<const char*, ControllerKind> controllers[] = {
+      {"pid", ControllerKind::kPid}, {"noslip", ControllerKind::kNoSlipId},
+      {"two_stage", ControllerKind::kTwoStageId}};
+  for (double mu : {0.1, 1.0}) {
+    for (auto [cname, kind] : controllers) {
+      char buf[64];
+      std::snprintf(buf, sizeof(buf), "trot_mu%.1f_%s", mu, cname);
+      sim::ExperimentConfig c;
+      c.reference = servo::Reference::Kind::kTrot;
+      c.duration_s = 6.0;
+      c.mu = mu;
+      c.controller = sim::StandardController(kind);
+      all.push_back({buf, c});
+      std::snprintf(buf, sizeof(buf), "eight_mu%.1f_%s", mu, cname);
+      c.reference = servo::Reference::Kind::kFigureEight;
+      c.duration_s = c.figure_eight.start_delay_s + c.figure_eight.period_s + 0.5;
+      all.push_back({buf, c});
+    }
+  }
+  for (auto [cname, kind] : {std::pair{"stage1", ControllerKind::kStage1Id},
+                             std::pair{"two_stage", ControllerKind::kTwoStageId}}) {
+    sim::ExperimentConfig c;
+    c.reference = servo::Reference::Kind::kTrot;
+    c.duration_s = 3.0;
+    c.mu = 1.0;
+    c.controller = sim::StandardController(kind);
+    all.push_back({std::string("fig1_") + cname, c});
+  }
+  sim::ExperimentConfig t;
+  t.reference = servo::Reference::Kind::kTrot;
+  t.duration_s = 60.0;
+  t.mu = 0.1;
+  t.controller = sim::StandardController(ControllerKind::kTwoStageId);
+  all.push_back({"timing_trot60_two_stage", t});
+  for (auto& s : all) s.cfg.name = s.name;
+  return all;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::vector<std::string> wanted;
+  std::string out_dir = "experiments";
+  bool all = false;
+  const auto scenarios = Scenarios();
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view a = argv[i];
+    if (a == "--help" || a == "-h") {
+      std::fputs(kUsage.data(), stdout);
+      return 0;
+    } else if (a == "--list") {
+      for (const auto& s : scenarios) std::printf("%s\n", s.name.c_str());
+      return 0;
+    } else if (a == "--all") {
+      all = true;
+    } else if (a == "--scenario" && i + 1 < argc) {
+      wanted.emplace_back(argv[++i]);
+    } else if (a == "--out" && i + 1 < argc) {
+      out_dir = argv[++i];
+    } else {
+      std::fprintf(stderr, "hyq-experiment: unknown or incomplete option '%s'\n\n%s", argv[i],
+                   kUsage.data());
+      return 2;
+    }
+  }
+  std::vector<const Scenario*> run;
+  for (const auto& s : scenarios)
+    if (all || std::find(wanted.begin(), wanted.end(), s.name) != wanted.end()) run.push_back(&s);
+  for (const auto& w : wanted)
+    if (std::none_of(scenarios.begin(), scenarios.end(), [&](const Scenario& s) { return s.name == w; })) {
+      std::fprintf(stderr, "hyq-experiment: unknown scenario '%s' (--list shows them)\n", w.c_str());
+      return 2;
+    }
+  if (run.empty()) {
+    std::fprintf(stderr, "hyq-experiment: nothing to run (--all or --scenario NAME)\n\n%s",
+                 kUsage.data());
+    return 2;
+  }
+  const dynamics::Model model = dynamics::LoadModelFromUrdf(HYQ_DEFAULT_URDF);
+  std::filesystem::create_directories(out_dir);
+  nlohmann::json results = nlohmann::json::object();
+  const auto t_all = std::chrono::steady_clock::now();
+  for (std::size_t i = 0; i < run.size(); ++i) {
+    const Scenario& s = *run[i];
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto r = sim::RunExperiment(model, s.cfg, [&](double f) {
+      std::fprintf(stderr, "\r[%zu/%zu] %-26s %3.0f %%", i + 1, run.size(), s.name.c_str(), 100 * f);
+    });
+    const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    sim::WriteCsv(r, out_dir + "/" + s.name + ".csv");
+    std::vector<double> us;
+    for (const auto& smp : r.samples) us.push_back(smp.control_time_us);
+    std::sort(us.begin(), us.end());
+    double mean_us = 0;
+    for (double u : us) mean_us += u;
+    mean_us /= static_cast<double>(us.size());
+    auto pct = [&](double p) { return us[std::min(us.size() - 1, static_cast<std::size_t>(p * us.size()))]; };
+    results[s.name] = {{"mean_error_rad", r.mean_error_rad},
+                       {"max_error_rad", r.max_error_rad},
+                       {"mean_slip_speed_m_s", r.mean_slip_speed},
+                       {"fell", r.fell},
+                       {"fell_at_s", r.fell_at_s},
+                       {"control_us", {{"mean", mean_us}, {"median", pct(0.5)}, {"p999", pct(0.999)}, {"max", us.back()}}},
+                       {"fallbacks", {{"stage1_failed", r.fallbacks.stage1_failed}, {"stage2_failed", r.fallbacks.stage2_failed}}},
+                       {"realtime_factor", s.cfg.duration_s / wall}};
+    std::fprintf(stderr, "\r[%zu/%zu] %-26s mean error %.4f rad, slip %.4f m/s%s, %.0fx real time\n",
+                 i + 1, run.size(), s.name.c_str(), r.mean_error_rad, r.mean_slip_speed,
+                 r.fell ? " FELL" : "", s.cfg.duration_s / wall);
+  }
+  std::ofstream(out_dir + "/results.json") << results.dump(2) << "\n";
+  std::fprintf(stderr, "done in %.1f s: %s/results.json\n",
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - t_all).count(),
+               out_dir.c_str());
+  return 0;
+}

@@ -1,0 +1,152 @@
+#include "tools/sim/experiment.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+#include "dynamics/cycle_dynamics.h"
+
+namespace hyq::sim {
+
+servo::ControllerConfig StandardController(servo::ControllerKind kind) {
+  servo::ControllerConfig c;
+  c.kind = kind;
+  // PD shared by all (N m/rad, N m s/rad), per joint type haa, hfe, kfe
+  const double kp[3] = {300.0, 300.0, 300.0}, kd[3] = {8.0, 8.0, 8.0};
+  for (int j = 0; j < 12; ++j) {
+    c.pid.kp(j) = kp[j % 3];
+    c.pid.kd(j) = kd[j % 3];
+    c.pid.ki(j) = 0.0;
+    c.pid.i_limit(j) = 0.0;
+    c.feedback.kp_tau(j) = kp[j % 3];
+    c.feedback.kd_tau(j) = kd[j % 3];
+  }
+  // the ID controllers' q̈_des = q̈_ref (no acceleration feedback: the PD above is the feedback)
+  return c;
+}
+
+ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentConfig& cfg,
+                               const std::function<void(double)>& progress) {
+  PlantConfig pc;
+  pc.ground_mu = cfg.mu;
+  pc.foot_mu = cfg.foot_mu;
+  Plant plant(model, pc);
+  servo::Reference ref = cfg.reference == servo::Reference::Kind::kTrot
+                             ? servo::Reference::Trot(model, cfg.trot)
+                         : cfg.reference == servo::Reference::Kind::kFigureEight
+                             ? servo::Reference::FigureEight(model, cfg.figure_eight)
+                             : servo::Reference::Stand(model);
+  servo::Controller ctl(model, cfg.controller);
+  auto dyn = std::make_unique<dynamics::CycleDynamics>();
+
+  dynamics::VectorQ q0 = model.StandingQ();
+  if (cfg.initial_perturbation_rad > 0) {
+    std::mt19937_64 rng(cfg.seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (int j = 0; j < 12; ++j) q0(7 + j) += cfg.initial_perturbation_rad * u(rng);
+  }
+  plant.Reset(q0, dynamics::VectorV::Zero());
+
+  servo::ContactEnvironment env;
+  for (int f = 0; f < 4; ++f) env.mu[f] = cfg.foot_mu[f] >= 0 ? cfg.foot_mu[f] : cfg.mu;
+
+  ExperimentResult r;
+  const double dt = pc.timestep_s;
+  const auto steps = static_cast<long>(cfg.duration_s / dt);
+  r.samples.reserve(static_cast<std::size_t>(steps));
+  servo::ReferenceSample rs;
+  servo::IdOutput out;
+  double err_sum = 0, slip_sum = 0;
+  long slip_n = 0;
+  for (long k = 0; k < steps; ++k) {
+    const double t = k * dt;
+    const dynamics::VectorQ q = plant.q();
+    const dynamics::VectorV v = plant.v();
+    ref.Sample(t, &rs);
+    const auto t0 = std::chrono::steady_clock::now();
+    const auto ds = dynamics::ComputeCycleDynamics(model, q, v, dyn.get());
+    servo::VectorJ tau = servo::VectorJ::Zero();
+    if (ds == dynamics::DynamicsStatus::kOk) {
+      (void)ctl.Compute(*dyn, q, v, rs.joints, env, dt, &out);
+      tau = out.tau_Nm;
+    }
+    const auto t1 = std::chrono::steady_clock::now();
+    for (int j = 0; j < 12; ++j)
+      tau(j) = std::clamp(tau(j), -model.limits[j].effort_Nm, model.limits[j].effort_Nm);
+    plant.Step(tau);
+
+    Sample s;
+    s.t = t;
+    s.q = q.tail<12>();
+    s.q_ref = rs.joints.q;
+    s.tau = tau;
+    const auto contacts = plant.FootContacts();
+    for (int f = 0; f < 4; ++f) {
+      s.contact_force_W[f] = contacts[f].force_W;
+      s.touching[f] = contacts[f].touching;
+      s.stance_ref[f] = rs.joints.stance[f];
+      s.slip_speed[f] = contacts[f].touching ? contacts[f].slip_velocity_W.norm() : 0.0;
+      if (contacts[f].touching && rs.joints.stance[f]) {
+        slip_sum += s.slip_speed[f];
+        ++slip_n;
+      }
+    }
+    s.error_norm_rad = (s.q_ref - s.q).norm();
+    s.base_height_m = q(2);
+    s.control_time_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
+    s.stage1_status = static_cast<std::uint8_t>(out.stage1.status);
+    s.stage2_status = static_cast<std::uint8_t>(out.stage2.status);
+    s.fallback = static_cast<std::uint8_t>(out.fallback);
+    err_sum += s.error_norm_rad;
+    r.max_error_rad = std::max(r.max_error_rad, s.error_norm_rad);
+    r.samples.push_back(s);
+    // fallen: the trunk low, or tilted past 45°
+    const Eigen::Quaterniond quat(q(3), q(4), q(5), q(6));
+    const double up = (quat.toRotationMatrix() * Eigen::Vector3d::UnitZ()).z();
+    if (!r.fell && (q(2) < 0.3 || up < std::cos(M_PI / 4))) {
+      r.fell = true;
+      r.fell_at_s = t;
+    }
+    if (progress && k % 1000 == 0) progress(static_cast<double>(k) / steps);
+  }
+  r.mean_error_rad = err_sum / std::max<long>(steps, 1);
+  r.mean_slip_speed = slip_n ? slip_sum / slip_n : 0.0;
+  switch (cfg.controller.kind) {
+    case servo::ControllerKind::kTwoStageId: r.fallbacks = ctl.two_stage_counters(); break;
+    case servo::ControllerKind::kStage1Id: r.fallbacks = ctl.stage1_counters(); break;
+    case servo::ControllerKind::kNoSlipId: r.fallbacks = ctl.noslip_counters(); break;
+    case servo::ControllerKind::kPid: break;
+  }
+  return r;
+}
+
+void WriteCsv(const ExperimentResult& r, const std::string& path) {
+  std::ofstream f(path);
+  if (!f) throw std::runtime_error(path + ": cannot open for writing");
+  f << "t";
+  for (const char* col : {"q", "q_ref", "tau"})
+    for (int j = 0; j < 12; ++j) f << ',' << col << j;
+  for (int leg = 0; leg < 4; ++leg)
+    f << ",f" << leg << "_x,f" << leg << "_y,f" << leg << "_z,slip" << leg << ",stance" << leg
+      << ",touch" << leg;
+  f << ",error_norm,base_height,control_us,stage1,stage2,fallback\n";
+  f.precision(9);
+  for (const Sample& s : r.samples) {
+    f << s.t;
+    for (const auto* v : {&s.q, &s.q_ref, &s.tau})
+      for (int j = 0; j < 12; ++j) f << ',' << (*v)(j);
+    for (int leg = 0; leg < 4; ++leg)
+      f << ',' << s.contact_force_W[leg].x() << ',' << s.contact_force_W[leg].y() << ','
+        << s.contact_force_W[leg].z() << ',' << s.slip_speed[leg] << ',' << s.stance_ref[leg]
+        << ',' << s.touching[leg];
+    f << ',' << s.error_norm_rad << ',' << s.base_height_m << ',' << s.control_time_us << ','
+      << int(s.stage1_status) << ',' << int(s.stage2_status) << ',' << int(s.fallback) << '\n';
+  }
+}
+
+}  // namespace hyq::sim

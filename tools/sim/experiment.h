@@ -1,0 +1,60 @@
+// One simulated experiment (docs/experiments.md): the MuJoCo HyQ, the controller the daemon runs
+// (servo/controller.h) with the true state, a reference (stand, trot, figure eight), 1 kHz.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "servo/controller.h"
+#include "servo/reference.h"
+#include "tools/sim/plant.h"
+
+namespace hyq::sim {
+
+struct ExperimentConfig {
+  std::string name;
+  servo::Reference::Kind reference = servo::Reference::Kind::kTrot;
+  servo::TrotParams trot;
+  servo::FigureEightParams figure_eight;
+  double duration_s = 4.0;
+  double mu = 1.0;                        // ground friction (plant and controller)
+  std::array<double, 4> foot_mu{-1, -1, -1, -1};
+  servo::ControllerConfig controller;
+  std::uint64_t seed = 1;                 // initial-state perturbation
+  double initial_perturbation_rad = 0.0;  // random joint offsets at t = 0
+};
+
+/// Gains shared by every controller (the fairness rule of docs/experiments.md): PID uses them as
+/// its PD; the ID controllers add the same PD torque to their model-based feed-forward.
+servo::ControllerConfig StandardController(servo::ControllerKind kind);
+
+struct Sample {
+  double t;
+  servo::VectorJ q, q_ref, tau;
+  std::array<Eigen::Vector3d, 4> contact_force_W;
+  std::array<double, 4> slip_speed;      // tangential contact-point speed of stance feet, m/s
+  std::array<bool, 4> stance_ref, touching;
+  double error_norm_rad;                 // ‖q_ref − q‖
+  double base_height_m;
+  double control_time_us;                // dynamics + controller, wall clock
+  std::uint8_t stage1_status, stage2_status, fallback;
+};
+
+struct ExperimentResult {
+  std::vector<Sample> samples;
+  bool fell = false;
+  double fell_at_s = 0.0;
+  double mean_error_rad = 0.0, max_error_rad = 0.0;
+  double mean_slip_speed = 0.0;          // over stance feet that touch
+  servo::FallbackCounters fallbacks;
+};
+
+/// Runs the experiment; `progress(fraction)` is called now and then (may be empty).
+ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentConfig& cfg,
+                               const std::function<void(double)>& progress = {});
+
+/// Writes the time series as CSV (one row per sample).
+void WriteCsv(const ExperimentResult& r, const std::string& path);
+
+}  // namespace hyq::sim
