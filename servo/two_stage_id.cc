@@ -105,7 +105,35 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
     return IdStatus::kOk;
   }
 
-  RunStage1(dyn, in, f_id);
+  if (settings_.project_contact_velocity) {
+    // v ← v − M⁻¹J_cᵀ (J_c M⁻¹ J_cᵀ)⁻¹ J_c v: the velocity an inelastic impact of the stance
+    // contacts would leave (M-orthogonal projection onto J_c v = 0), so the method does not try
+    // to absorb, within h, contact-point velocities the rigid-contact model cannot have
+    const int rows = 3 * set_.count;
+    Eigen::Matrix<double, dynamics::kNv, Eigen::Dynamic, Eigen::ColMajor, dynamics::kNv, 12> MiJt(
+        dynamics::kNv, rows);
+    Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> Jv(rows);
+    for (int i = 0; i < set_.count; ++i) {
+      Jv.segment<3>(3 * i) = set_.J_c[i] * in.v;
+      for (int a = 0; a < 3; ++a) {
+        VectorV col = set_.J_c[i].row(a).transpose();
+        dynamics::SolveInPlace(dyn.factor, &col);
+        MiJt.col(3 * i + a) = col;
+      }
+    }
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12> G(rows, rows);
+    for (int i = 0; i < set_.count; ++i)
+      G.middleRows<3>(3 * i).noalias() = set_.J_c[i] * MiJt;
+    proj_llt_.compute(G);
+    consistent_ = in;
+    if (proj_llt_.info() == Eigen::Success) {
+      const Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> lam = proj_llt_.solve(Jv);
+      consistent_.v.noalias() -= MiJt * lam;
+    }
+    RunStage1(dyn, consistent_, f_id);
+  } else {
+    RunStage1(dyn, in, f_id);
+  }
   out->stage1 = {true, s1_.status, s1_.objective, s1_.iterations, s1_.solve_time_s};
   if (s1_.status != qp::Status::kOptimal) {
     ++counters_.stage1_failed;

@@ -35,6 +35,7 @@
 #include <chrono>
 #include <optional>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/QR>
 
 #include "dynamics/cycle_dynamics.h"
@@ -61,6 +62,12 @@ struct TwoStageSettings {
   /// The method corrects contact-point velocities within h, so h = 1 ms makes a very stiff
   /// loop on compliant contact (docs/inverse_dynamics.md, "Horizon").
   double horizon_s = 0.0;
+  /// Project the measured v M-orthogonally onto J_c v = 0 (what an inelastic impact of the
+  /// stance contacts would leave) before Stage I, so that the method does not try to cancel,
+  /// within h, contact-point velocities that the rigid-contact model says cannot exist (on a
+  /// compliant ground they would make a deadbeat loop of gain 1/h: docs/inverse_dynamics.md,
+  /// "Measured contact velocities"). A no-op when v is already contact-consistent.
+  bool project_contact_velocity = true;
   int tangent_directions = 4;   // r
   bool stage2 = true;           // false: the paper's "Stage I only" (Fig. 1)
   int max_iterations = 200;     // Stage I QP
@@ -137,6 +144,9 @@ class TwoStageId {
   qp::Solver solver2_;
 
   FallbackCounters counters_;
+  IdInput consistent_;
+  Eigen::LLT<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12>>
+      proj_llt_;
 };
 
 }  // namespace hyq::servo

@@ -273,6 +273,34 @@ TEST_F(TwoStage, StageTwoRemovesChatterThroughContactChanges) {
   EXPECT_LT(tv2, 0.5 * tv1);
 }
 
+TEST_F(TwoStage, MeasuredContactVelocityIsTreatedAsAnImpact) {
+  // the robot standing, its base sinking at 1 cm/s into a compliant ground
+  IdInput in = testing::StandingInput(&rng_, kAll);
+  in.v.setZero();
+  in.v(2) = -0.01;
+  const auto d = Dyn(in);
+  TwoStageSettings off;
+  off.project_contact_velocity = false;
+  TwoStageId projected, raw(off);
+  IdOutput a, b;
+  ASSERT_EQ(projected.Solve(HyqModel(), *d, in, &a), IdStatus::kOk) << Describe(a);
+  ASSERT_EQ(raw.Solve(HyqModel(), *d, in, &b), IdStatus::kOk) << Describe(b);
+  double na = 0, nb = 0;
+  for (int f = 0; f < 4; ++f) {
+    na += a.impulses[f].normal_Ns;
+    nb += b.impulses[f].normal_Ns;
+  }
+  const double weight_impulse = HyqModel().TotalMass() * 9.81 * in.dt;
+  std::printf("normal impulse with projection %.3f N s, without %.3f N s (weight x h = %.3f)\n",
+              na, nb, weight_impulse);
+  EXPECT_NEAR(na, weight_impulse, 0.05 * weight_impulse);  // holds the weight, nothing more
+  EXPECT_GT(nb, 1.5 * weight_impulse);                      // stops the sinking within h
+  // the projected answer is the answer for the contact-consistent velocity
+  ContactSet set;
+  ASSERT_EQ(BuildContactSet(HyqModel(), d->feet, in, 4, &set), ContactStatus::kOk);
+  for (int i = 0; i < set.count; ++i) EXPECT_LT((set.J_c[i] * a.v_star).norm(), 1e-9);
+}
+
 TEST_F(TwoStage, ZeroStanceIsContactFreeId) {
   IdInput in = Consistent({false, false, false, false});
   const auto d = Dyn(in);
