@@ -3,6 +3,7 @@
 // paper's numbers, and (tools/hyq-experiment/plot.py) the figures. docs/experiments.md.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
@@ -80,6 +81,72 @@ std::vector<Scenario> Scenarios() {
   return all;
 }
 
+// The paper's comparisons, ours beside them (docs/experiments.md explains the differences).
+void WriteTables(nlohmann::json& results, const std::string& out_dir) {
+  auto err = [&](const std::string& n) -> double {
+    return results.contains(n) ? results[n]["mean_error_rad"].get<double>() : std::nan("");
+  };
+  auto fell = [&](const std::string& n) { return results.contains(n) && results[n]["fell"].get<bool>(); };
+  auto change = [&](const std::string& a, const std::string& b) { return 100.0 * (err(a) - err(b)) / err(b); };
+  nlohmann::json cmp = nlohmann::json::array();
+  auto row = [&](const std::string& what, double ours, const std::string& paper, bool valid) {
+    cmp.push_back({{"comparison", what}, {"ours_percent", valid ? nlohmann::json(ours) : nlohmann::json()},
+                   {"paper", paper}});
+  };
+  row("trot, mu = 0.1: two-stage ID vs PID, mean position error", change("trot_mu0.1_two_stage", "trot_mu0.1_pid"),
+      "-77.08 %", results.contains("trot_mu0.1_pid") && results.contains("trot_mu0.1_two_stage"));
+  row("Figure-Eight, mu = 0.1: two-stage ID vs PID", change("eight_mu0.1_two_stage", "eight_mu0.1_pid"),
+      "-90.33 %", results.contains("eight_mu0.1_pid") && results.contains("eight_mu0.1_two_stage"));
+  row("Figure-Eight, mu = 0.1: two-stage ID vs no-slip ID", change("eight_mu0.1_two_stage", "eight_mu0.1_noslip"),
+      "-56.30 %", results.contains("eight_mu0.1_noslip") && results.contains("eight_mu0.1_two_stage"));
+  row("trot, mu = 1.0: two-stage ID vs no-slip ID", change("trot_mu1.0_two_stage", "trot_mu1.0_noslip"),
+      "nearly identical", results.contains("trot_mu1.0_noslip") && results.contains("trot_mu1.0_two_stage"));
+  row("Figure-Eight, mu = 1.0: two-stage ID vs no-slip ID", change("eight_mu1.0_two_stage", "eight_mu1.0_noslip"),
+      "nearly identical", results.contains("eight_mu1.0_noslip") && results.contains("eight_mu1.0_two_stage"));
+  nlohmann::json doc = {{"scenarios", results}, {"comparisons", cmp}};
+  if (results.contains("fig1_stage1") && results.contains("fig1_two_stage"))
+    doc["chatter_total_variation_Nm"] = {{"stage1", results["fig1_stage1"]["torque_total_variation_Nm"]},
+                                         {"two_stage", results["fig1_two_stage"]["torque_total_variation_Nm"]}};
+  if (results.contains("timing_trot60_two_stage"))
+    doc["timing_us"] = {{"ours", results["timing_trot60_two_stage"]["qp_us"]},
+                        {"paper", {{"mean", 1000.0}, {"worst", 36000.0}}}};
+  std::ofstream(out_dir + "/results.json") << doc.dump(2) << "\n";
+
+  std::ofstream md(out_dir + "/results.md");
+  md << "| scenario | mean error (rad) | max error (rad) | mean stance-foot slip (m/s) | fell |\n"
+        "|---|---|---|---|---|\n";
+  for (auto& [name, r] : results.items()) {
+    char line[256];
+    std::snprintf(line, sizeof(line), "| %s | %.4f | %.4f | %.4f | %s |\n", name.c_str(),
+                  r["mean_error_rad"].get<double>(), r["max_error_rad"].get<double>(),
+                  r["mean_slip_speed_m_s"].get<double>(), r["fell"].get<bool>() ? "yes" : "no");
+    md << line;
+  }
+  md << "\n| comparison | ours | paper |\n|---|---|---|\n";
+  for (const auto& c : cmp) {
+    char line[256];
+    if (c["ours_percent"].is_null())
+      std::snprintf(line, sizeof(line), "| %s | (not run) | %s |\n", c["comparison"].get<std::string>().c_str(),
+                    c["paper"].get<std::string>().c_str());
+    else
+      std::snprintf(line, sizeof(line), "| %s | %+.2f %% | %s |\n", c["comparison"].get<std::string>().c_str(),
+                    c["ours_percent"].get<double>(), c["paper"].get<std::string>().c_str());
+    md << line;
+  }
+  if (doc.contains("chatter_total_variation_Nm"))
+    md << "\nFig. 1 chatter (total variation of the joint torques over the run): Stage I "
+       << doc["chatter_total_variation_Nm"]["stage1"].get<double>() << " N m, Stage I + II "
+       << doc["chatter_total_variation_Nm"]["two_stage"].get<double>() << " N m\n";
+  if (doc.contains("timing_us")) {
+    const auto& t = doc["timing_us"]["ours"];
+    md << "\nTwo-stage optimisation per cycle over 60 s of trotting: mean " << t["mean"].get<double>()
+       << " us, median " << t["median"].get<double>() << " us, 99.9th percentile "
+       << t["p999"].get<double>() << " us, worst " << t["max"].get<double>()
+       << " us (paper: mean 1 ms, worst 36 ms)\n";
+  }
+  (void)fell;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -132,8 +199,16 @@ int main(int argc, char** argv) {
     });
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     sim::WriteCsv(r, out_dir + "/" + s.name + ".csv");
-    std::vector<double> us;
-    for (const auto& smp : r.samples) us.push_back(smp.control_time_us);
+    std::vector<double> us, qp_us;
+    for (const auto& smp : r.samples) {
+      us.push_back(smp.control_time_us);
+      qp_us.push_back(smp.qp_time_us);
+    }
+    std::sort(qp_us.begin(), qp_us.end());
+    double qp_mean = 0;
+    for (double u : qp_us) qp_mean += u;
+    qp_mean /= static_cast<double>(qp_us.size());
+    auto qpct = [&](double p) { return qp_us[std::min(qp_us.size() - 1, static_cast<std::size_t>(p * qp_us.size()))]; };
     std::sort(us.begin(), us.end());
     double mean_us = 0;
     for (double u : us) mean_us += u;
@@ -145,13 +220,15 @@ int main(int argc, char** argv) {
                        {"fell", r.fell},
                        {"fell_at_s", r.fell_at_s},
                        {"control_us", {{"mean", mean_us}, {"median", pct(0.5)}, {"p999", pct(0.999)}, {"max", us.back()}}},
+                       {"qp_us", {{"mean", qp_mean}, {"median", qpct(0.5)}, {"p999", qpct(0.999)}, {"max", qp_us.back()}}},
+                       {"torque_total_variation_Nm", r.torque_total_variation},
                        {"fallbacks", {{"stage1_failed", r.fallbacks.stage1_failed}, {"stage2_failed", r.fallbacks.stage2_failed}}},
                        {"realtime_factor", s.cfg.duration_s / wall}};
     std::fprintf(stderr, "\r[%zu/%zu] %-26s mean error %.4f rad, slip %.4f m/s%s, %.0fx real time\n",
                  i + 1, run.size(), s.name.c_str(), r.mean_error_rad, r.mean_slip_speed,
                  r.fell ? " FELL" : "", s.cfg.duration_s / wall);
   }
-  std::ofstream(out_dir + "/results.json") << results.dump(2) << "\n";
+  WriteTables(results, out_dir);
   std::fprintf(stderr, "done in %.1f s: %s/results.json\n",
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t_all).count(),
                out_dir.c_str());

@@ -99,6 +99,9 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     s.error_norm_rad = (s.q_ref - s.q).norm();
     s.base_height_m = q(2);
     s.control_time_us = std::chrono::duration<double, std::micro>(t1 - t0).count();
+    s.qp_time_us = 1e6 * ((out.stage1.ran ? out.stage1.solve_time_s : 0.0) +
+                          (out.stage2.ran ? out.stage2.solve_time_s : 0.0));
+    if (!r.samples.empty()) r.torque_total_variation += (tau - r.samples.back().tau).norm();
     s.stage1_status = static_cast<std::uint8_t>(out.stage1.status);
     s.stage2_status = static_cast<std::uint8_t>(out.stage2.status);
     s.fallback = static_cast<std::uint8_t>(out.fallback);
@@ -134,7 +137,7 @@ void WriteCsv(const ExperimentResult& r, const std::string& path) {
   for (int leg = 0; leg < 4; ++leg)
     f << ",f" << leg << "_x,f" << leg << "_y,f" << leg << "_z,slip" << leg << ",stance" << leg
       << ",touch" << leg;
-  f << ",error_norm,base_height,control_us,stage1,stage2,fallback\n";
+  f << ",error_norm,base_height,control_us,qp_us,stage1,stage2,fallback\n";
   f.precision(9);
   for (const Sample& s : r.samples) {
     f << s.t;
@@ -145,6 +148,7 @@ void WriteCsv(const ExperimentResult& r, const std::string& path) {
         << s.contact_force_W[leg].z() << ',' << s.slip_speed[leg] << ',' << s.stance_ref[leg]
         << ',' << s.touching[leg];
     f << ',' << s.error_norm_rad << ',' << s.base_height_m << ',' << s.control_time_us << ','
+      << s.qp_time_us << ','
       << int(s.stage1_status) << ',' << int(s.stage2_status) << ',' << int(s.fallback) << '\n';
   }
 }

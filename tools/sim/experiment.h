@@ -38,6 +38,7 @@ struct Sample {
   double error_norm_rad;                 // ‖q_ref − q‖
   double base_height_m;
   double control_time_us;                // dynamics + controller, wall clock
+  double qp_time_us;                     // Stage I + Stage II solves (the paper's timing)
   std::uint8_t stage1_status, stage2_status, fallback;
 };
 
@@ -47,6 +48,7 @@ struct ExperimentResult {
   double fell_at_s = 0.0;
   double mean_error_rad = 0.0, max_error_rad = 0.0;
   double mean_slip_speed = 0.0;          // over stance feet that touch
+  double torque_total_variation = 0.0;   // Σ‖τ_k − τ_{k−1}‖, N·m (Fig. 1's chatter)
   servo::FallbackCounters fallbacks;
 };
 
