@@ -11,6 +11,7 @@ namespace {
 constexpr int kMaxDependentEntries = 2;
 // A Farkas certificate is accepted when ‖Cᵀ w‖ is below this (relative, see CertificateResidual).
 constexpr double kCertificateTolerance = 1e-12;
+constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
 
 // z = L⁻¹ z in place, z zero above `first`: rows of L⁻¹ times z, each independent
 void ForwardChol(const Workspace& ws, double* z, int first) {
@@ -269,11 +270,12 @@ bool CertificateProvesInfeasibility(const Workspace& ws, double primal_tolerance
 // Row (row, sign) entered dependent on W: s C_row ≈ Σ_p c_p s_p C_p (c in ws->tmp2). Whether it
 // holds at every point where W's rows are at their bounds, i.e. at the degenerate vertex itself:
 // there s C_row x = Σ c_p s_p b_p + rᵀx with r = s C_rowᵀ − Σ c_p s_p C_pᵀ, so the row's
-// violation is at most  v = Σ c_p s_p b_p − s b_row + ‖r‖₁ ‖x‖∞. When v is within the primal
-// tolerance (same margin as CertificateProvesInfeasibility), the measured violation is only the
-// rounding of W's rows (amplified by c) and the step the dual method would take is of length
-// zero in x: at a vertex with many zero-slack rows it would swap such rows with W's forever
-// (cycling) or, with no blocking row, build a "certificate" with no gap.
+// violation is at most  v = Σ c_p s_p b_p − s b_row + ‖r‖₁ (1 + ‖x‖∞). When v is within the
+// row's own primal tolerance τ (1 + |b_row|) (plus the rounding of the sum v), the row is not
+// violated at the exact vertex: the measured violation is only the rounding of W's rows
+// (amplified by c) and the step the dual method would take is of length zero in x: at a vertex
+// with many zero-slack rows it would swap such rows with W's forever (cycling) or, with no
+// blocking row, build a "certificate" with no gap.
 bool DependentRowIsImplied(const Workspace& ws, int row, int sign, const double* c,
                            double primal_tolerance) {
   const Problem& p = *ws.problem;
@@ -289,14 +291,14 @@ bool DependentRowIsImplied(const Workspace& ws, int row, int sign, const double*
   for (int j = 0; j < n; ++j) r[j] = 0.0;
   const double b_row = SideBound(ws, row, sign);
   double v = -sign * b_row;
-  double scale = 1.0 + std::fabs(b_row);
+  double rounding = std::fabs(b_row);  // Σ |terms| of v
   add_row(row, sign);
   for (int q = 0; q < ws.nw; ++q) {
     if (c[q] == 0.0) continue;
     const int i = ws.w_row[q];
     const double b = SideBound(ws, i, ws.w_sign[q]);
     v += c[q] * ws.w_sign[q] * b;
-    scale += std::fabs(c[q]) * (1.0 + std::fabs(b));
+    rounding += std::fabs(c[q] * b);
     add_row(i, -c[q] * ws.w_sign[q]);
   }
   double r1 = 0.0, xmax = 0.0;
@@ -304,7 +306,8 @@ bool DependentRowIsImplied(const Workspace& ws, int row, int sign, const double*
     r1 += std::fabs(r[j]);
     xmax = std::fmax(xmax, std::fabs(ws.xk[j] + ws.delta[j]));
   }
-  return v + r1 * (1.0 + xmax) <= 10.0 * primal_tolerance * scale;
+  return v + r1 * (1.0 + xmax) <=
+         primal_tolerance * (1.0 + std::fabs(b_row)) + 8.0 * kEpsilon * rounding;
 }
 
 bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status) {

@@ -197,9 +197,26 @@ double Violation(const Problem& p, const VectorN& x) {
 
 // The bug this guards against: 2,492 of these 4,000 cold solves returned kInfeasible before
 // the gap check. kInfeasible is never acceptable. A cold or warm solve may still stop at the
-// iteration limit (about 1 in 400 here, with 1e-7-norm rows, scaled duplicates and pointed-cone
-// closures all at one vertex; none on the captured contact-ID instances): that is counted,
-// must stay rare, and is reported (docs/qp.md, known limits).
+// iteration limit (9 of the 8,000 solves here, with 1e-7-norm rows, scaled duplicates and
+// pointed-cone closures all at one vertex; none on the captured contact-ID instances): that is
+// counted, must stay rare, and is reported (docs/qp.md, known limits).
+// Σ|y_i|·|C_i x − b_i| (b_i the bound on y_i's side) + ‖stationarity residual‖₁ ‖x0 − x‖∞
+double ObjectiveSlack(const Problem& p, const Solution& s, const VectorN& x0) {
+  const Eigen::VectorXd ax = p.A * s.x;
+  double slack = 0.0;
+  for (int j = 0; j < p.n(); ++j) {
+    const double y = s.y_bounds(j);
+    if (y != 0.0) slack += std::fabs(y) * std::fabs(s.x(j) - (y > 0 ? p.ub(j) : p.lb(j)));
+  }
+  for (int k = 0; k < p.m(); ++k) {
+    const double y = s.y_constraints(k);
+    if (y != 0.0) slack += std::fabs(y) * std::fabs(ax(k) - (y > 0 ? p.ubA(k) : p.lbA(k)));
+  }
+  const Eigen::VectorXd r =
+      p.H * s.x + p.g + s.y_bounds + p.A.transpose() * s.y_constraints;
+  return slack + r.lpNorm<1>() * (x0 - s.x).lpNorm<Eigen::Infinity>();
+}
+
 TEST(QpDegenerateStress, FeasibleDegenerateProblemsAreNeverInfeasible) {
   std::mt19937_64 rng(20261123);
   Solver solver;
@@ -222,9 +239,12 @@ TEST(QpDegenerateStress, FeasibleDegenerateProblemsAreNeverInfeasible) {
     worst_iterations = std::max(worst_iterations, s.iterations);
     worst_kkt = std::max(worst_kkt, s.kkt.max());
     EXPECT_LE(ComputeKktResiduals(d.p, s.x, s.y_bounds, s.y_constraints).max(), 1e-9) << d.what;
-    // the objective can be no worse than at the known feasible point
+    // the objective can be no worse than at the known feasible point, up to what the KKT
+    // residuals allow (by convexity, f(x0) ≥ f(x) + ∇f(x)ᵀ(x0 − x), which gives
+    // f(x) ≤ f(x0) + Σ|y_i|·|C_i x − b_i| + ‖Hx + g + y_b + Aᵀy_c‖₁ ‖x0 − x‖∞)
     const double f0 = 0.5 * d.x0.dot(d.p.H * d.x0) + d.p.g.dot(d.x0);
-    EXPECT_LE(s.objective, f0 + 1e-9 * std::max(1.0, std::fabs(f0))) << d.what;
+    EXPECT_LE(s.objective, f0 + ObjectiveSlack(d.p, s, d.x0) + 1e-12 * std::max(1.0, std::fabs(f0)))
+        << d.what;
     // a servo-like warm re-solve: some lower sides move down a little (x0 stays feasible)
     Problem q = d.p;
     for (int k = 0; k < q.m(); ++k)
@@ -245,7 +265,7 @@ TEST(QpDegenerateStress, FeasibleDegenerateProblemsAreNeverInfeasible) {
     }
   }
   EXPECT_EQ(infeasible + warm_infeasible, 0);
-  EXPECT_LE(not_optimal + warm_not_optimal, 2 * kProblems / 100);  // now 44 of 8,000 solves
+  EXPECT_LE(not_optimal + warm_not_optimal, kProblems / 100);  // 9 of the 8,000 solves now
   RecordProperty("iteration_limit_cold", not_optimal);
   RecordProperty("iteration_limit_warm", warm_not_optimal);
   std::printf("%d degenerate feasible problems: cold %d infeasible, %d iteration limit; warm %d "
