@@ -11,6 +11,7 @@ namespace {
 constexpr int kMaxDependentEntries = 2;
 // A Farkas certificate is accepted when ‖Cᵀ w‖ is below this (relative, see CertificateResidual).
 constexpr double kCertificateTolerance = 1e-12;
+constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
 
 // z = L⁻¹ z in place, z zero above `first`: rows of L⁻¹ times z, each independent
 void ForwardChol(const Workspace& ws, double* z, int first) {
@@ -227,6 +228,88 @@ double CertificateResidual(const Workspace& ws) {
   return rmax / (std::fmax(wmax, 1e-300) * amax);
 }
 
+// Whether the certificate in ws->cert proves infeasibility: Cᵀw ≈ 0 is not enough, its gap
+//   β = Σ_{w_i > 0} w_i hi_i + Σ_{w_i < 0} w_i lo_i
+// must be negative by more than what rows violated by the primal tolerance could make up, plus
+// what the residual r = Cᵀw can contribute at the current iterate x = x_k + δ:
+//   β < −(10 τ Σ |w_i| (1 + |b_i|) + ‖r‖₁ (1 + ‖x‖∞)).
+// Every x meeting each row to within τ (1 + |b_i|) has Σ w_i C_i x = rᵀx ≥ β − 10 τ ..., so only
+// a gap below that margin is a contradiction. At a degenerate feasible vertex (many rows active
+// at zero slack, Stage II of the contact ID) a row can enter dependent on W with no blocking
+// multiplier while its "violation" is only the rounding of W's rows amplified by the combination:
+// then Cᵀw closes but β ≥ 0 (or ≈ 0), and the problem is feasible.
+bool CertificateProvesInfeasibility(const Workspace& ws, double primal_tolerance) {
+  const Problem& p = *ws.problem;
+  const int n = ws.n, m = ws.m;
+  double r[kN];
+  double gap = 0.0, margin = 0.0;
+  for (int i = 0; i < ws.rows; ++i) {
+    const double w = ws.cert[i];
+    if (w == 0.0) continue;
+    const double b = w > 0.0 ? ws.hi[i] : ws.lo[i];
+    if (!std::isfinite(b)) return false;
+    gap += w * b;
+    margin += std::fabs(w) * (1.0 + std::fabs(b));
+  }
+  margin *= 10.0 * primal_tolerance;
+  for (int i = 0; i < n; ++i) r[i] = ws.cert[i];
+  for (int k = 0; k < m; ++k) {
+    const double w = ws.cert[n + k];
+    if (w == 0.0) continue;
+    for (int j = 0; j < n; ++j) r[j] += p.A(k, j) * w;
+  }
+  double r1 = 0.0, xmax = 0.0;
+  for (int j = 0; j < n; ++j) {
+    r1 += std::fabs(r[j]);
+    xmax = std::fmax(xmax, std::fabs(ws.xk[j] + ws.delta[j]));
+  }
+  margin += r1 * (1.0 + xmax);
+  return gap < -margin;
+}
+
+// Row (row, sign) entered dependent on W: s C_row ≈ Σ_p c_p s_p C_p (c in ws->tmp2). Whether it
+// holds at every point where W's rows are at their bounds, i.e. at the degenerate vertex itself:
+// there s C_row x = Σ c_p s_p b_p + rᵀx with r = s C_rowᵀ − Σ c_p s_p C_pᵀ, so the row's
+// violation is at most  v = Σ c_p s_p b_p − s b_row + ‖r‖₁ (1 + ‖x‖∞). When v is within the
+// row's own primal tolerance τ (1 + |b_row|) (plus the rounding of the sum v), the row is not
+// violated at the exact vertex: the measured violation is only the rounding of W's rows
+// (amplified by c) and the step the dual method would take is of length zero in x: at a vertex
+// with many zero-slack rows it would swap such rows with W's forever (cycling) or, with no
+// blocking row, build a "certificate" with no gap.
+bool DependentRowIsImplied(const Workspace& ws, int row, int sign, const double* c,
+                           double primal_tolerance) {
+  const Problem& p = *ws.problem;
+  const int n = ws.n;
+  double r[kN];
+  auto add_row = [&](int i, double w) {
+    if (i < n) {
+      r[i] += w;
+    } else {
+      for (int j = 0; j < n; ++j) r[j] += p.A(i - n, j) * w;
+    }
+  };
+  for (int j = 0; j < n; ++j) r[j] = 0.0;
+  const double b_row = SideBound(ws, row, sign);
+  double v = -sign * b_row;
+  double rounding = std::fabs(b_row);  // Σ |terms| of v
+  add_row(row, sign);
+  for (int q = 0; q < ws.nw; ++q) {
+    if (c[q] == 0.0) continue;
+    const int i = ws.w_row[q];
+    const double b = SideBound(ws, i, ws.w_sign[q]);
+    v += c[q] * ws.w_sign[q] * b;
+    rounding += std::fabs(c[q] * b);
+    add_row(i, -c[q] * ws.w_sign[q]);
+  }
+  double r1 = 0.0, xmax = 0.0;
+  for (int j = 0; j < n; ++j) {
+    r1 += std::fabs(r[j]);
+    xmax = std::fmax(xmax, std::fabs(ws.xk[j] + ws.delta[j]));
+  }
+  return v + r1 * (1.0 + xmax) <=
+         primal_tolerance * (1.0 + std::fabs(b_row)) + 8.0 * kEpsilon * rounding;
+}
+
 bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status) {
   if (iterations >= limits.max_iterations) {
     *status = InnerStatus::kIterationLimit;
@@ -241,13 +324,16 @@ bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status)
 
 // Row (row, sign) is violated at the current u: add it, first stepping λ along the dependence
 // direction (−c, +1) and dropping the blocking rows while it is dependent on W.
-enum class EnterResult { kEntered, kSkipped, kStop };
+// kSkippedInPlace: the row was left out and W, λ are untouched, so the current step (possibly
+// refined) stays valid; kSkipped: left out after W changed (blocking rows removed, rebuild).
+enum class EnterResult { kEntered, kSkipped, kSkippedInPlace, kStop };
 
 EnterResult Enter(Workspace* ws, int row, int sign, double violation, const InnerLimits& limits,
                   int* iterations, InnerStatus* status) {
   RowVector(*ws, row, ws->mnew.data());
   double lambda_new = 0.0;
   bool rebuilt = false;
+  bool changed = false;  // W or λ modified (then the step must be recomputed)
   for (;;) {
     if (TryAppend(ws, row, sign, lambda_new, limits.dependence_tolerance))
       return EnterResult::kEntered;
@@ -259,13 +345,19 @@ EnterResult Enter(Workspace* ws, int row, int sign, double violation, const Inne
       if (ws->dependent_entries[row] > 0 && violation > 0.5 * ws->entry_violation[row] &&
           ++ws->dependent_entries[row] > kMaxDependentEntries) {
         ws->skipped[row] = 1;
-        return EnterResult::kSkipped;
+        return changed ? EnterResult::kSkipped : EnterResult::kSkippedInPlace;
       }
       if (ws->dependent_entries[row] == 0) ws->dependent_entries[row] = 1;
       ws->entry_violation[row] = violation;
     }
     if (ws->nw == ws->n) SolveFullWorkingSet(ws, row, sign);
     const double* c = ws->tmp2.data();
+    // zero-length step: the row holds wherever W's rows do, its violation is rounding. Leave it
+    // out of this subproblem instead of swapping (degeneracy) or claiming infeasibility.
+    if (lambda_new == 0.0 && DependentRowIsImplied(*ws, row, sign, c, limits.primal_tolerance)) {
+      ws->skipped[row] = 1;
+      return changed ? EnterResult::kSkipped : EnterResult::kSkippedInPlace;
+    }
     double cmax = 0.0;
     for (int p = 0; p < ws->nw; ++p) cmax = std::fmax(cmax, std::fabs(c[p]));
     int j = -1;
@@ -307,12 +399,22 @@ EnterResult Enter(Workspace* ws, int row, int sign, double violation, const Inne
           RebuildWorkingSet(ws, limits.dependence_tolerance);
           RowVector(*ws, row, ws->mnew.data());
           rebuilt = true;
+          changed = true;
           continue;
         }
         ws->skipped[row] = 1;
-        return EnterResult::kSkipped;
+        return changed ? EnterResult::kSkipped : EnterResult::kSkippedInPlace;
       }
       if (j < 0) {
+        // a closed Cᵀw = 0 whose gap is not clearly negative proves nothing: the row is
+        // consistent with W (an implicit equality at a degenerate vertex) and its violation is
+        // rounding, so the step towards it has length zero. Leave it out of this subproblem;
+        // the refinement on W makes W's rows, and with them this one, exact, and the outer KKT
+        // check sees every row again. Never claim infeasibility without a proof.
+        if (!CertificateProvesInfeasibility(*ws, limits.primal_tolerance)) {
+          ws->skipped[row] = 1;
+          return changed ? EnterResult::kSkipped : EnterResult::kSkippedInPlace;
+        }
         *status = InnerStatus::kInfeasible;
         return EnterResult::kStop;
       }
@@ -321,6 +423,7 @@ EnterResult Enter(Workspace* ws, int row, int sign, double violation, const Inne
     ws->lambda[j] = 0.0;
     lambda_new += alpha;
     Remove(ws, j);
+    changed = true;
     ++*iterations;
     if (OutOfBudget(limits, *iterations, status)) return EnterResult::kStop;
   }
@@ -504,8 +607,10 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
                             bool scan_first) noexcept {
   InnerStatus status = InnerStatus::kOptimal;
   for (int i = 0; i < ws->rows; ++i) ws->skipped[i] = ws->dependent_entries[i] = 0;
-  for (bool scan_only = scan_first;; scan_only = false) {
+  for (bool scan_next = scan_first;;) {
     const int nw = ws->nw;
+    const bool scan_only = scan_next;
+    scan_next = false;
     if (!scan_only) {
       // λ* = −Kw⁻¹ d   (3), Kw = Lw Dw Lwᵀ
       double* ls = ws->lambda_star.data();
@@ -562,6 +667,12 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
         Enter(ws, enter, enter_sign, worst, limits, iterations, &status);
     if (entered == EnterResult::kStop) return status;
     if (entered == EnterResult::kSkipped) continue;
+    // nothing changed: go on scanning the same step (recomputing it from λ would also throw
+    // away a refinement of it)
+    if (entered == EnterResult::kSkippedInPlace) {
+      scan_next = true;
+      continue;
+    }
     ++*iterations;
     if (OutOfBudget(limits, *iterations, &status)) return status;
   }

@@ -5,6 +5,9 @@ Debian's python3-cvxopt (an interior-point method), for tests/qp/qp_reference_te
 Run with Debian's interpreter (the one that sees python3-cvxopt):
     /usr/bin/python3 tests/qp/data/make_reference.py
 
+It also writes tests/qp/data/contact_id/answers.json, cvxopt's answers for the QPs captured from
+the contact inverse dynamics in tests/qp/data/contact_id/ (see contact_id()).
+
 Each instance stores the data so that C++ rebuilds exactly the same problem:
     H = Fᵀ F (F absent: H = 0),  g = Fᵀ c + g0,  lb ≤ x ≤ ub,  lbA ≤ A x ≤ ubA
 (null for an infinite bound; numbers rounded to 6 significant digits before solving, so the JSON
@@ -228,5 +231,57 @@ def main():
           (len(out), skipped, path), file=sys.stderr)
 
 
+def load_tool_json(path):
+    """A problem in hyq-qp-solve's format (null = infinite bound), as solve_cvxopt's arguments."""
+    with open(path) as f:
+        d = json.load(f)
+    n = len(d["g"])
+    num = lambda v, inf: inf if v is None else float(v)
+    A = np.array(d.get("A", []), dtype=float).reshape(-1, n)
+    lbA = np.array([num(v, -math.inf) for v in d.get("lbA", [])])
+    ubA = np.array([num(v, math.inf) for v in d.get("ubA", [])])
+    lb = np.array([num(v, -math.inf) for v in d.get("lb", [None] * n)])
+    ub = np.array([num(v, math.inf) for v in d.get("ub", [None] * n)])
+    return np.array(d["H"], dtype=float), np.array(d["g"], dtype=float), A, lbA, ubA, lb, ub
+
+
+def contact_id():
+    """tests/qp/data/contact_id/answers.json: cvxopt's answers for the QPs captured from the
+    two-stage contact inverse dynamics (full-precision data, kept as they were captured: rounding
+    them would break the exact dependence of their rows that makes them hard). cvxopt solves
+    each twice: with its default tolerances (status "optimal" on all of them) and with the tight
+    ones used above (closer objective; cvxopt may stop with "unknown" there on the most degenerate
+    ones, with its x still feasible to ~1e-11)."""
+    folder = os.path.join(os.path.dirname(os.path.abspath(__file__)), "contact_id")
+    tight = dict(solvers.options)
+    answers = []
+    for name in sorted(os.listdir(folder)):
+        if not name.endswith(".json") or name == "answers.json":
+            continue
+        H, g, A, lbA, ubA, lb, ub = load_tool_json(os.path.join(folder, name))
+        entry = {"file": name}
+        for key, opts in (("default", {}), ("tight", tight)):
+            solvers.options.clear()
+            solvers.options.update(opts)
+            solvers.options["show_progress"] = False
+            status, x = solve_cvxopt(H, g, A, lbA, ubA, lb, ub)
+            ax = A @ x if len(lbA) else np.zeros(0)
+            violation = max([0.0] + list(lbA - ax) + list(ax - ubA) + list(lb - x) + list(x - ub))
+            entry[key] = {"status": status, "objective": float(0.5 * x @ H @ x + g @ x),
+                          "max_violation": float(violation), "x": [float(v) for v in x]}
+        answers.append(entry)
+    solvers.options.clear()
+    solvers.options.update(tight)
+    path = os.path.join(folder, "answers.json")
+    with open(path, "w") as f:
+        json.dump({"generator": "tests/qp/data/make_reference.py (contact_id)",
+                   "reference_solver": "cvxopt %s (Debian python3-cvxopt)" %
+                   __import__("cvxopt").__version__,
+                   "answers": answers}, f, indent=1)
+        f.write("\n")
+    print("%d contact-ID instances -> %s" % (len(answers), path), file=sys.stderr)
+
+
 if __name__ == "__main__":
     main()
+    contact_id()
