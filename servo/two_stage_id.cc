@@ -207,6 +207,10 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
   }
   p1_.lb.setZero();  // (29); ub stays +inf
   for (int i = 0; i < nc; ++i) {
+    if (set_.mu[i] <= settings_.frictionless_mu)
+      for (int k = 0; k < set_.tangents; ++k) p1_.ub(set_.TangentIndex(i, k)) = 0.0;
+  }
+  for (int i = 0; i < nc; ++i) {
     // (28): N_iᵀ v* = N_b,iᵀ (Z z + p) + N_q,iᵀ v*_q ≥ 0
     const int ni = set_.NormalIndex(i);
     p1_.A.row(i).noalias() = R_b.col(ni).transpose() * Z_;
@@ -214,7 +218,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
     // (30): μ_i c_N,i − Σ_k c_D,ik ≥ 0
     p1_.A(nc + i, ni) = set_.mu[i];
     for (int k = 0; k < set_.tangents; ++k) p1_.A(nc + i, set_.TangentIndex(i, k)) = -1.0;
-    p1_.lbA(nc + i) = 0.0;
+    p1_.lbA(nc + i) = set_.mu[i] <= settings_.frictionless_mu ? -qp::kInf : 0.0;  // implied
   }
   const bool warm = have_last_ && last_stance_ == in.stance;
   const qp::Status st = solver1_.Solve(p1_, MakeBudget(warm, settings_.max_iterations), &s1_);
@@ -251,6 +255,11 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
       slack -= z(ti);
     }
     p2_.lbA(nz + i) = std::min(-slack, 0.0);
+    if (set_.mu[i] <= settings_.frictionless_mu) {
+      // P keeps this contact's tangential impulses at 0: their rows and the friction row hold
+      p2_.lbA(nz + i) = -qp::kInf;
+      for (int k = 0; k < set_.tangents; ++k) p2_.lbA(set_.TangentIndex(i, k)) = -qp::kInf;
+    }
   }
   const bool warm = last_null_dim_ == null_dim_ && have_last_;
   last_null_dim_ = null_dim_;
@@ -274,29 +283,48 @@ bool TwoStageId::BuildNullSpace() noexcept {
   const int nc = set_.count;
   const int r = set_.tangents;
   const int nz = set_.num_impulses();
-  // internal forces: F with Σ_i J_c,i,bᵀ f_i = 0, from the QR of W ᵀ = [J_c,1,b; …; J_c,n,b]
-  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor, kMaxForceRows, 6> Wt(3 * nc, 6);
-  for (int i = 0; i < nc; ++i) Wt.middleRows<3>(3 * i) = set_.J_c[i].leftCols<kB>();
+  // internal forces: F with Σ_i J_c,i,bᵀ f_i = 0, from the QR of Wᵀ; a frictionless contact
+  // contributes only its normal (one row n_iᵀ J_c,i,b), the others all three directions
+  std::array<int, kMaxContacts> first_row{};
+  int rows = 0;
+  for (int i = 0; i < nc; ++i) rows += set_.mu[i] <= settings_.frictionless_mu ? 1 : 3;
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor, kMaxForceRows, 6> Wt(rows, 6);
+  rows = 0;
+  for (int i = 0; i < nc; ++i) {
+    first_row[i] = rows;
+    if (set_.mu[i] <= settings_.frictionless_mu) {
+      Wt.row(rows++) = set_.normal_W[i].transpose() * set_.J_c[i].leftCols<kB>();
+    } else {
+      Wt.middleRows<3>(rows) = set_.J_c[i].leftCols<kB>();
+      rows += 3;
+    }
+  }
   qr_.setThreshold(settings_.null_space_tolerance);
   qr_.compute(Wt);
-  const int internal = 3 * nc - static_cast<int>(qr_.rank());
+  const int internal = rows - static_cast<int>(qr_.rank());
   const int cancelling = static_cast<int>(tangent_null_.cols());
+  int frictional = 0;
+  for (int i = 0; i < nc; ++i) frictional += set_.mu[i] > settings_.frictionless_mu;
   // with fewer than three directions a tangent force cannot always be written in them
   const bool liftable = r >= 3;
-  null_dim_ = (liftable ? internal : 0) + nc * cancelling;
+  null_dim_ = (liftable ? internal : 0) + frictional * cancelling;
   if (null_dim_ == 0) return false;
   P_.setZero(nz, null_dim_);
   int col = 0;
   if (liftable && internal > 0) {
     // the trailing columns of Q only: Q [0; I] (cheaper than evaluating all of Q)
-    Qw_.setZero(3 * nc, internal);
+    Qw_.setZero(rows, internal);
     Qw_.bottomRows(internal).setIdentity();
     qr_.householderQ().applyThisOnTheLeft(Qw_);
     // f_i = a n + b t1 + c t2 lifts to z_N = a, z_D,k = (2/r)(b cos θ_k + c sin θ_k)
     for (int j = 0; j < internal; ++j, ++col) {
       const auto f = Qw_.col(j);
       for (int i = 0; i < nc; ++i) {
-        const Eigen::Vector3d fi = f.segment<3>(3 * i);
+        if (set_.mu[i] <= settings_.frictionless_mu) {
+          P_(set_.NormalIndex(i), col) = f(first_row[i]);
+          continue;
+        }
+        const Eigen::Vector3d fi = f.segment<3>(first_row[i]);
         P_(set_.NormalIndex(i), col) = set_.normal_W[i].dot(fi);
         const double b = set_.t1_W[i].dot(fi), c = set_.t2_W[i].dot(fi);
         for (int k = 0; k < r; ++k)
@@ -304,9 +332,11 @@ bool TwoStageId::BuildNullSpace() noexcept {
       }
     }
   }
-  for (int i = 0; i < nc; ++i)
+  for (int i = 0; i < nc; ++i) {
+    if (set_.mu[i] <= settings_.frictionless_mu) continue;
     for (int j = 0; j < cancelling; ++j, ++col)
       for (int k = 0; k < r; ++k) P_(set_.TangentIndex(i, k), col) = tangent_null_(k, j);
+  }
   return true;
 }
 

@@ -70,11 +70,14 @@ struct TwoStageSettings {
   bool project_contact_velocity = true;
   int tangent_directions = 4;   // r
   bool stage2 = true;           // false: the paper's "Stage I only" (Fig. 1)
-  int max_iterations = 200;     // Stage I QP
-  int stage2_max_iterations = 200;
+  int max_iterations = 500;     // Stage I QP (degenerate near-frictionless cases need ~150)
+  int stage2_max_iterations = 500;
   /// Wall-clock budget per QP (none by default; the servo loop sets one).
   std::optional<std::chrono::nanoseconds> time_budget;
   double null_space_tolerance = 1e-9;  // relative, rank decision for the internal forces
+  /// A contact with μ at or below this is frictionless: its tangential impulses are fixed at 0
+  /// (instead of being squeezed to 0 by nearly dependent friction rows).
+  double frictionless_mu = 1e-6;
 };
 
 enum class [[nodiscard]] IdStatus : std::uint8_t { kOk, kFallback, kBadInput };

@@ -399,6 +399,7 @@ TEST_F(TwoStage, NoHeapInAnyControllerAfterWarmup) {
   JointReference ref;
   ref.q = HyqModel().q_standing;
   ContactEnvironment env;
+  env.mu = {0.6, 0.0, 1.0, 0.05};  // one frictionless foot exercises that path too
   const IdInput a = Consistent(kAll), b = Consistent(kLfRh);
   const auto da = Dyn(a), db = Dyn(b);
   IdOutput out;
