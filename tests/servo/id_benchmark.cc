@@ -1,6 +1,6 @@
 // Whole inverse dynamics per cycle: dynamics + Stage I + Stage II (and the baselines), for 2, 3
-// and 4 stance feet, warm-started cycle to cycle along a body-sway motion with the stance feet
-// fixed (contact-consistent). Per-call percentiles come from the latency counters.
+// and 4 stance feet, warm-started cycle to cycle along a recorded trot (3 s of closed-loop
+// trotting on μ = 0.1 in the MuJoCo HyQ). Per-call percentiles come from the latency counters.
 //
 //   build/release/tests/servo/id_benchmark --benchmark_repetitions=5
 //       --benchmark_report_aggregates_only=true
@@ -11,46 +11,49 @@
 
 #include "servo/controller.h"
 #include "tests/servo/id_fixture.h"
+#include "tools/sim/experiment.h"
 #include "tests/support/latency_stats.h"
 
 namespace hyq::servo {
 namespace {
 
-constexpr int kCycles = 2000;  // 2 s of motion at 1 kHz
-
 std::array<bool, 4> Stance(int feet) {
   if (feet == 2) return {true, false, false, true};
-  if (feet == 3) return {true, true, false, true};
+  if (feet == 3) return {true, true, true, false};
   return {true, true, true, true};
 }
 
-// A 2 s sway: lateral 1 Hz, vertical 2 Hz, roll 0.5 Hz, all stance feet fixed.
-std::vector<IdInput> Sway(int feet) {
-  std::vector<IdInput> seq;
-  std::mt19937_64 rng(7);
-  const IdInput base = testing::StandingInput(&rng, Stance(4), 0.0);
-  for (int k = 0; k < kCycles; ++k) {
-    const double t = k * 1e-3, w = 2 * M_PI;
-    IdInput in = base;
-    in.q(1) += 0.03 * std::sin(w * t);
-    in.q(2) += 0.02 * std::sin(2 * w * t);
-    dynamics::Vector6d vb = dynamics::Vector6d::Zero(), ab = dynamics::Vector6d::Zero();
-    vb(1) = 0.03 * w * std::cos(w * t);
-    vb(2) = 0.04 * w * std::cos(2 * w * t);
-    ab(1) = -0.03 * w * w * std::sin(w * t);
-    ab(2) = -0.08 * w * w * std::sin(2 * w * t);
-    testing::MakeContactConsistent(&in, vb, ab, &rng);
-    in.stance = Stance(feet);
-    in.mu = {0.6, 0.6, 0.6, 0.6};
-    seq.push_back(in);
+// The ID problems of 3 s of closed-loop trotting on μ = 0.1 (MuJoCo HyQ, two-stage ID), recorded
+// once; the cycles with `feet` feet in stance (3: the double-support cycles with rh lifted).
+const std::vector<IdInput>& RecordedTrot(int feet) {
+  static const std::vector<IdInput> all = [] {
+    sim::ExperimentConfig cfg;
+    cfg.reference = Reference::Kind::kTrot;
+    cfg.duration_s = 3.0;
+    cfg.mu = 0.1;
+    cfg.controller = sim::StandardController(ControllerKind::kTwoStageId);
+    cfg.record_id_inputs = true;
+    return sim::RunExperiment(testing::HyqModel(), cfg).id_inputs;
+  }();
+  static std::array<std::vector<IdInput>, 5> by_feet;
+  if (by_feet[feet].empty()) {
+    for (const IdInput& in : all) {
+      const int n = in.stance[0] + in.stance[1] + in.stance[2] + in.stance[3];
+      if (feet == 2 && n == 2) by_feet[2].push_back(in);
+      if (feet >= 3 && n == 4) {
+        IdInput c = in;
+        c.stance = Stance(feet);
+        by_feet[feet].push_back(c);
+      }
+    }
   }
-  return seq;
+  return by_feet[feet];
 }
 
 void BM_WholeId(benchmark::State& state) {
   const int feet = static_cast<int>(state.range(0));
   const auto kind = static_cast<ControllerKind>(state.range(1));
-  const auto seq = Sway(feet);
+  const auto& seq = RecordedTrot(feet);
   ControllerConfig cfg;
   cfg.kind = kind;
   Controller ctl(testing::HyqModel(), cfg);
@@ -58,7 +61,7 @@ void BM_WholeId(benchmark::State& state) {
   JointReference ref;
   ref.stance = Stance(feet);
   ContactEnvironment env;
-  env.mu = {0.6, 0.6, 0.6, 0.6};
+  env.mu = {0.1, 0.1, 0.1, 0.1};
   IdOutput out;
   testing::LatencyRecorder rec(2'000'000);
   std::size_t i = 0;

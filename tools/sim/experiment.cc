@@ -74,6 +74,7 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     if (ds == dynamics::DynamicsStatus::kOk) {
       (void)ctl.Compute(*dyn, q, v, rs.joints, env, dt, &out);
       tau = out.tau_Nm;
+      if (cfg.record_id_inputs) r.id_inputs.push_back(ctl.last_input());
     }
     const auto t1 = std::chrono::steady_clock::now();
     for (int j = 0; j < 12; ++j)

@@ -23,6 +23,7 @@ struct ExperimentConfig {
   servo::ControllerConfig controller;
   std::uint64_t seed = 1;                 // initial-state perturbation
   double initial_perturbation_rad = 0.0;  // random joint offsets at t = 0
+  bool record_id_inputs = false;          // keep every cycle's ID problem (benchmarks, files)
 };
 
 /// Gains shared by every controller (the fairness rule of docs/experiments.md): PID uses them as
@@ -50,6 +51,7 @@ struct ExperimentResult {
   double mean_slip_speed = 0.0;          // over stance feet that touch
   double torque_total_variation = 0.0;   // Σ‖τ_k − τ_{k−1}‖, N·m (Fig. 1's chatter)
   servo::FallbackCounters fallbacks;
+  std::vector<servo::IdInput> id_inputs;  // when ExperimentConfig::record_id_inputs
 };
 
 /// Runs the experiment; `progress(fraction)` is called now and then (may be empty).
