@@ -93,13 +93,17 @@ struct VirtualRig {
     stop = true;
     thread.join();
   }
-  /// Brings every device to OP at 1 kHz (throws with the HAL's report if one does not come up).
+  /// Brings every device to OP (throws with the HAL's report if one does not come up). Each
+  /// cycle waits (up to 5 ms) for the devices that answer SYNC to answer before the next Read,
+  /// so a loaded machine slows the bring-up down instead of failing it.
   void BringUp() {
     std::int64_t now = MonotonicNs();
     hal::RunBringUp(*hal, hal::DeviceState::kOp, now, [&] {
-      now += 1'000'000;
-      timespec t{now / 1'000'000'000, now % 1'000'000'000};
+      (void)WaitForInputs(13, 5'000'000);
+      const std::int64_t next = now + 1'000'000;  // 1 kHz when the machine keeps up
+      timespec t{next / 1'000'000'000, next % 1'000'000'000};
       clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &t, nullptr);
+      now = MonotonicNs();
       return now;
     });
     // bring-up ends with a Write: take that cycle's inputs so the next Write starts clean

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "dynamics/urdf_loader.h"
+#include "servo/id_record.h"
 #include "tools/sim/experiment.h"
 
 namespace {
@@ -34,7 +35,9 @@ constexpr std::string_view kUsage =
     "\n"
     "  --all            every scenario (about a minute)\n"
     "  --scenario NAME  one scenario (repeatable); --list shows the names\n"
-    "  --out DIR        output folder\n";
+    "  --out DIR        output folder\n"
+    "  --record-id      also write every cycle's ID problem, DIR/<scenario>.id.jsonl (hyq-id\n"
+    "                   replays them)\n";
 
 struct Scenario {
   std::string name;
@@ -153,6 +156,7 @@ int main(int argc, char** argv) {
   std::vector<std::string> wanted;
   std::string out_dir = "experiments";
   bool all = false;
+  bool record_id = false;
   const auto scenarios = Scenarios();
   for (int i = 1; i < argc; ++i) {
     const std::string_view a = argv[i];
@@ -164,6 +168,8 @@ int main(int argc, char** argv) {
       return 0;
     } else if (a == "--all") {
       all = true;
+    } else if (a == "--record-id") {
+      record_id = true;
     } else if (a == "--scenario" && i + 1 < argc) {
       wanted.emplace_back(argv[++i]);
     } else if (a == "--out" && i + 1 < argc) {
@@ -194,11 +200,22 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < run.size(); ++i) {
     const Scenario& s = *run[i];
     const auto t0 = std::chrono::steady_clock::now();
-    const auto r = sim::RunExperiment(model, s.cfg, [&](double f) {
+    sim::ExperimentConfig cfg = s.cfg;
+    cfg.record_id_inputs = record_id && cfg.controller.kind != ControllerKind::kPid;
+    const auto r = sim::RunExperiment(model, cfg, [&](double f) {
       std::fprintf(stderr, "\r[%zu/%zu] %-26s %3.0f %%", i + 1, run.size(), s.name.c_str(), 100 * f);
     });
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
     sim::WriteCsv(r, out_dir + "/" + s.name + ".csv");
+    if (cfg.record_id_inputs) {
+      std::ofstream id_file(out_dir + "/" + s.name + ".id.jsonl");
+      servo::IdRecord rec;
+      rec.controller = cfg.controller.kind;
+      for (const auto& in : r.id_inputs) {
+        rec.input = in;
+        id_file << servo::FormatIdRecord(rec) << '\n';
+      }
+    }
     std::vector<double> us, qp_us;
     for (const auto& smp : r.samples) {
       us.push_back(smp.control_time_us);
