@@ -56,5 +56,30 @@ void EnableRxTimestampsAndDrops(int fd, const char* what) {
   SetIntOption(fd, SOL_SOCKET, SO_RXQ_OVFL, 1, (std::string(what) + " SO_RXQ_OVFL").c_str());
 }
 
+hal::CanStatus SendPrepared(int fd, mmsghdr* msgs, std::size_t n, std::size_t total,
+                            std::size_t* sent, hal::CanCounters* counters) noexcept {
+  int r;
+  do {
+    r = sendmmsg(fd, msgs, static_cast<unsigned>(n), MSG_DONTWAIT);
+  } while (r < 0 && errno == EINTR);
+  if (r < 0) {
+    if (errno == EAGAIN || errno == EWOULDBLOCK || errno == ENOBUFS) {
+      counters->tx_would_block += total - *sent;
+      return hal::CanStatus::kWouldBlock;
+    }
+    counters->last_errno = errno;
+    ++counters->io_errors;
+    return hal::CanStatus::kIoError;
+  }
+  const auto done = static_cast<std::size_t>(r);
+  *sent += done;
+  counters->tx_frames += done;
+  if (done < n) {
+    counters->tx_would_block += total - *sent;
+    return hal::CanStatus::kWouldBlock;
+  }
+  return hal::CanStatus::kOk;
+}
+
 }  // namespace internal
 }  // namespace hyq::drivers

@@ -6,6 +6,8 @@
 #include <cstddef>
 #include <cstdint>
 
+#include "hal/can_channel.h"
+
 namespace hyq::drivers::internal {
 
 /// Control-message space per received datagram: SCM_TIMESTAMPNS plus SO_RXQ_OVFL.
@@ -24,6 +26,13 @@ std::int64_t RealtimeNs() noexcept;
 
 /// Turns on SO_TIMESTAMPNS and SO_RXQ_OVFL; throws ChannelError naming `what`.
 void EnableRxTimestampsAndDrops(int fd, const char* what);
+
+/// Sends the n prepared messages with one non-blocking sendmmsg (EINTR retried) and does the
+/// accounting both socket channels share: *sent and tx_frames grow by what went out; when the
+/// kernel takes fewer than n (or EAGAIN / ENOBUFS), kWouldBlock and the frames left of `total`
+/// are counted as tx_would_block; other errors give kIoError with last_errno. kOk: all n sent.
+hal::CanStatus SendPrepared(int fd, mmsghdr* msgs, std::size_t n, std::size_t total,
+                            std::size_t* sent, hal::CanCounters* counters) noexcept;
 
 /// Sets a socket option to an int, throwing ChannelError with `what` on failure.
 void SetIntOption(int fd, int level, int option, int value, const char* what);

@@ -217,26 +217,9 @@ CanStatus SocketCanChannel::Send(std::span<const CanFrame> frames, std::size_t* 
       ++n;
     }
     if (n > 0) {
-      int r;
-      do {
-        r = sendmmsg(sock_, tx_msgs_.data(), static_cast<unsigned>(n), MSG_DONTWAIT);
-      } while (r < 0 && errno == EINTR);
-      if (r < 0) {
-        if (errno == EAGAIN || errno == EWOULDBLOCK || errno == ENOBUFS) {
-          counters_.tx_would_block += frames.size() - *sent;
-          return CanStatus::kWouldBlock;
-        }
-        counters_.last_errno = errno;
-        ++counters_.io_errors;
-        return CanStatus::kIoError;
-      }
-      const auto done = static_cast<std::size_t>(r);
-      *sent += done;
-      counters_.tx_frames += done;
-      if (done < n) {
-        counters_.tx_would_block += frames.size() - *sent;
-        return CanStatus::kWouldBlock;
-      }
+      const CanStatus st =
+          internal::SendPrepared(sock_, tx_msgs_.data(), n, frames.size(), sent, &counters_);
+      if (st != CanStatus::kOk) return st;
       next += n;
     }
     if (bad) {

@@ -29,10 +29,6 @@ in_addr ParseIpv4(const std::string& text, const char* what) {
   return a;
 }
 
-bool IsWouldBlock(int err) noexcept {
-  return err == EAGAIN || err == EWOULDBLOCK || err == ENOBUFS;
-}
-
 }  // namespace
 
 UdpMulticastChannel::UdpMulticastChannel(const UdpMulticastOptions& options) : options_(options) {
@@ -174,26 +170,9 @@ CanStatus UdpMulticastChannel::Send(std::span<const CanFrame> frames, std::size_
       ++n;
     }
     if (n > 0) {
-      int r;
-      do {
-        r = sendmmsg(tx_fd_, tx_msgs_.data(), static_cast<unsigned>(n), MSG_DONTWAIT);
-      } while (r < 0 && errno == EINTR);
-      if (r < 0) {
-        if (IsWouldBlock(errno)) {
-          counters_.tx_would_block += frames.size() - *sent;
-          return CanStatus::kWouldBlock;
-        }
-        counters_.last_errno = errno;
-        ++counters_.io_errors;
-        return CanStatus::kIoError;
-      }
-      const auto done = static_cast<std::size_t>(r);
-      *sent += done;
-      counters_.tx_frames += done;
-      if (done < n) {
-        counters_.tx_would_block += frames.size() - *sent;
-        return CanStatus::kWouldBlock;
-      }
+      const CanStatus st =
+          internal::SendPrepared(tx_fd_, tx_msgs_.data(), n, frames.size(), sent, &counters_);
+      if (st != CanStatus::kOk) return st;
       next += n;
     }
     if (bad) {
