@@ -173,10 +173,5 @@ std::string SpecForInterface(std::string_view interface) {
   return "socketcan:" + std::string(interface);
 }
 
-int ReceiveFd(const hal::CanChannel& channel) noexcept {
-  if (const auto* u = dynamic_cast<const UdpMulticastChannel*>(&channel)) return u->receive_fd();
-  if (const auto* s = dynamic_cast<const SocketCanChannel*>(&channel)) return s->receive_fd();
-  return -1;
-}
 
 }  // namespace hyq::drivers

@@ -55,7 +55,4 @@ namespace hyq::drivers {
 /// interface name) means "socketcan:can0"; anything with a driver prefix is used as it is.
 std::string SpecForInterface(std::string_view interface);
 
-/// The file descriptor to poll() for received frames, or -1 when the channel has none (replay).
-int ReceiveFd(const hal::CanChannel& channel) noexcept;
-
 }  // namespace hyq::drivers

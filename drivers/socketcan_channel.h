@@ -52,7 +52,7 @@ class SocketCanChannel final : public hal::CanChannel {
 
   /// The socket, for poll()/epoll() by callers that want to sleep until frames arrive (tools,
   /// the device emulator); -1 when closed. Do not read from it directly.
-  int receive_fd() const noexcept { return sock_; }
+  int poll_fd() const noexcept override { return sock_; }
   void Close() noexcept;
 
  private:

@@ -64,7 +64,7 @@ class UdpMulticastChannel final : public hal::CanChannel {
 
   /// The receiving socket, for poll()/epoll() by callers that want to sleep until datagrams
   /// arrive; -1 when closed. Readable also for our own echoes, which Receive() drops.
-  int receive_fd() const noexcept { return rx_fd_; }
+  int poll_fd() const noexcept override { return rx_fd_; }
 
   /// Closes both sockets; later calls return kClosed.
   void Close() noexcept;

@@ -77,6 +77,9 @@ class CanChannel {
   virtual CanStatus Receive(std::span<CanFrame> out, std::size_t* received) noexcept = 0;
 
   virtual const CanCounters& counters() const noexcept = 0;
+  /// A file descriptor that poll() reports readable when frames wait, or −1 when the channel
+  /// has none (in-memory and replay channels): for set-up and non-real-time waiting loops.
+  virtual int poll_fd() const noexcept { return -1; }
   virtual bool fd_enabled() const noexcept = 0;
   virtual std::string_view name() const noexcept = 0;
 };

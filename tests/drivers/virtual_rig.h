@@ -59,7 +59,7 @@ class PeekingChannel : public hal::CanChannel {
   const hal::CanCounters& counters() const noexcept override { return inner_->counters(); }
   bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
   std::string_view name() const noexcept override { return inner_->name(); }
-  int fd() const noexcept { return drivers::ReceiveFd(*inner_); }
+  int poll_fd() const noexcept override { return inner_->poll_fd(); }
 
  private:
   std::unique_ptr<hal::CanChannel> inner_;
@@ -77,8 +77,8 @@ struct VirtualRig {
       device.push_back(drivers::OpenChannel(spec));
       masters.push_back(master.back().get());
       devices.push_back(device.back().get());
-      device_fds.push_back({drivers::ReceiveFd(*device.back()), POLLIN, 0});
-      master_fds.push_back({master.back()->fd(), POLLIN, 0});
+      device_fds.push_back({device.back()->poll_fd(), POLLIN, 0});
+      master_fds.push_back({master.back()->poll_fd(), POLLIN, 0});
     }
     hal = std::make_unique<hal::Hal>(cfg, masters);
     emulator = std::make_unique<hal::Emulator>(cfg, devices);

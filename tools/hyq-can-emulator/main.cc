@@ -147,7 +147,7 @@ int RunDevices(const Options& o, hyq::hal::HalConfig cfg) {
         hyq::drivers::SpecForInterface(it != o.interfaces.end() ? it->second : b.interface);
     owned.push_back(hyq::drivers::OpenChannel(spec));
     channels.push_back(owned.back().get());
-    const int fd = hyq::drivers::ReceiveFd(*owned.back());
+    const int fd = owned.back()->poll_fd();
     if (fd >= 0) fds.push_back({fd, POLLIN, 0});
     std::printf("bus %-3s on %s\n", b.name.c_str(), spec.c_str());
   }

@@ -39,12 +39,6 @@ std::int64_t MonotonicNs() {
 void SleepUs(long us) { std::this_thread::sleep_for(std::chrono::microseconds(us)); }
 
 // The channel's receive socket when it has one (to sleep in poll), else -1.
-int ReceiveFd(hyq::hal::CanChannel& ch) {
-  if (auto* u = dynamic_cast<hyq::drivers::UdpMulticastChannel*>(&ch)) return u->receive_fd();
-  if (auto* s = dynamic_cast<hyq::drivers::SocketCanChannel*>(&ch)) return s->receive_fd();
-  return -1;
-}
-
 int Usage(const char* why) {
   std::fprintf(stderr,
                "hyq-candump: %s\n"
@@ -68,7 +62,7 @@ int Record(hyq::hal::CanChannel& ch, const std::string& out_path, const std::str
   const std::int64_t end =
       seconds > 0 ? MonotonicNs() + static_cast<std::int64_t>(seconds * 1e9) : INT64_MAX;
   long recorded = 0;
-  const int fd = ReceiveFd(ch);
+  const int fd = ch.poll_fd();
   while (g_stop == 0 && (count <= 0 || recorded < count) && MonotonicNs() < end) {
     std::size_t n = 0;
     const hyq::hal::CanStatus s = ch.Receive(buf, &n);
