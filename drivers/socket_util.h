@@ -2,9 +2,11 @@
 #pragma once
 
 #include <sys/socket.h>
+#include <sys/uio.h>
 
 #include <cstddef>
 #include <cstdint>
+#include <span>
 
 #include "hal/can_channel.h"
 
@@ -33,6 +35,40 @@ void EnableRxTimestampsAndDrops(int fd, const char* what);
 /// are counted as tx_would_block; other errors give kIoError with last_errno. kOk: all n sent.
 hal::CanStatus SendPrepared(int fd, mmsghdr* msgs, std::size_t n, std::size_t total,
                             std::size_t* sent, hal::CanCounters* counters) noexcept;
+
+/// The batching Send both socket channels share: encode(frame, slot) writes one frame into
+/// message slot `slot` and returns its length (0: this channel cannot carry the frame); up to
+/// `batch` frames go out per SendPrepared; a frame that cannot be carried stops the send with
+/// kBadFrame after the frames before it went out.
+template <class Encode>
+hal::CanStatus SendBatched(int fd, std::span<const hal::CanFrame> frames, std::size_t batch,
+                           mmsghdr* msgs, iovec* iov, std::size_t* sent,
+                           hal::CanCounters* counters, Encode&& encode) noexcept {
+  std::size_t next = 0;
+  while (next < frames.size()) {
+    std::size_t n = 0;
+    bool bad = false;
+    while (n < batch && next + n < frames.size()) {
+      const std::size_t bytes = encode(frames[next + n], n);
+      if (bytes == 0) {
+        bad = true;
+        break;
+      }
+      iov[n].iov_len = bytes;
+      ++n;
+    }
+    if (n > 0) {
+      const hal::CanStatus st = SendPrepared(fd, msgs, n, frames.size(), sent, counters);
+      if (st != hal::CanStatus::kOk) return st;
+      next += n;
+    }
+    if (bad) {
+      ++counters->bad_frames;
+      return hal::CanStatus::kBadFrame;
+    }
+  }
+  return hal::CanStatus::kOk;
+}
 
 /// Sets a socket option to an int, throwing ChannelError with `what` on failure.
 void SetIntOption(int fd, int level, int option, int value, const char* what);

@@ -201,33 +201,11 @@ CanStatus SocketCanChannel::Send(std::span<const CanFrame> frames, std::size_t* 
   *sent = 0;
   if (sock_ < 0) return CanStatus::kClosed;
   if (counters_.bus_state == BusState::kBusOff) return CanStatus::kBusOff;
-  std::size_t next = 0;
-  while (next < frames.size()) {
-    std::size_t n = 0;
-    bool bad = false;
-    while (n < options_.batch && next + n < frames.size()) {
-      const CanFrame& f = frames[next + n];
-      const std::size_t bytes =
-          (f.is_fd() && !fd_) ? 0 : ToKernel(f, tx_bytes_.data() + n * kSlotBytes);
-      if (bytes == 0) {
-        bad = true;
-        break;
-      }
-      tx_iov_[n].iov_len = bytes;
-      ++n;
-    }
-    if (n > 0) {
-      const CanStatus st =
-          internal::SendPrepared(sock_, tx_msgs_.data(), n, frames.size(), sent, &counters_);
-      if (st != CanStatus::kOk) return st;
-      next += n;
-    }
-    if (bad) {
-      ++counters_.bad_frames;
-      return CanStatus::kBadFrame;
-    }
-  }
-  return CanStatus::kOk;
+  return internal::SendBatched(
+      sock_, frames, options_.batch, tx_msgs_.data(), tx_iov_.data(), sent, &counters_,
+      [this](const CanFrame& f, std::size_t slot) -> std::size_t {
+        return (f.is_fd() && !fd_) ? 0 : ToKernel(f, tx_bytes_.data() + slot * kSlotBytes);
+      });
 }
 
 CanStatus SocketCanChannel::Receive(std::span<CanFrame> out, std::size_t* received) noexcept {

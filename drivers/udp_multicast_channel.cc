@@ -151,36 +151,13 @@ CanStatus UdpMulticastChannel::Send(std::span<const CanFrame> frames, std::size_
   if (tx_fd_ < 0) return CanStatus::kClosed;
   if (bus_off_) return CanStatus::kBusOff;
   const double now_s = static_cast<double>(internal::RealtimeNs()) * 1e-9;
-  std::size_t next = 0;
-  while (next < frames.size()) {
-    // encode a batch, stopping before the first frame this channel cannot carry
-    std::size_t n = 0;
-    bool bad = false;
-    while (n < options_.batch && next + n < frames.size()) {
-      const CanFrame& f = frames[next + n];
-      const std::span<std::uint8_t> buf(tx_bytes_.data() + n * kMaxDatagramBytes,
-                                        kMaxDatagramBytes);
-      const std::size_t bytes =
-          (f.is_fd() && !options_.fd) ? 0 : EncodeFrameDatagram(f, now_s, buf);
-      if (bytes == 0) {
-        bad = true;
-        break;
-      }
-      tx_iov_[n].iov_len = bytes;
-      ++n;
-    }
-    if (n > 0) {
-      const CanStatus st =
-          internal::SendPrepared(tx_fd_, tx_msgs_.data(), n, frames.size(), sent, &counters_);
-      if (st != CanStatus::kOk) return st;
-      next += n;
-    }
-    if (bad) {
-      ++counters_.bad_frames;
-      return CanStatus::kBadFrame;
-    }
-  }
-  return CanStatus::kOk;
+  return internal::SendBatched(
+      tx_fd_, frames, options_.batch, tx_msgs_.data(), tx_iov_.data(), sent, &counters_,
+      [this, now_s](const CanFrame& f, std::size_t slot) -> std::size_t {
+        const std::span<std::uint8_t> buf(tx_bytes_.data() + slot * kMaxDatagramBytes,
+                                          kMaxDatagramBytes);
+        return (f.is_fd() && !options_.fd) ? 0 : EncodeFrameDatagram(f, now_s, buf);
+      });
 }
 
 CanStatus UdpMulticastChannel::Receive(std::span<CanFrame> out, std::size_t* received) noexcept {
