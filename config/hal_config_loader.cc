@@ -3,129 +3,20 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
-#include <fstream>
 #include <initializer_list>
 #include <limits>
 #include <numbers>
-#include <sstream>
 #include <string>
 
+#include "config/yaml_reader.h"
 #include "hal/config_error.h"
 
 namespace hyq::config {
 namespace {
 
 using hal::ConfigError;
-
-std::string Describe(const YAML::Node& n) {
-  if (!n.IsDefined() || n.IsNull()) return "nothing";
-  if (n.IsScalar()) return "'" + n.Scalar() + "'";
-  if (n.IsSequence()) return "a list of " + std::to_string(n.size());
-  return "a map";
-}
-
-// Every lookup knows the file and the dotted key path, so that every error can name them.
-class Reader {
- public:
-  explicit Reader(std::string source) : source_(std::move(source)) {}
-
-  [[noreturn]] void Fail(const YAML::Node& where, const std::string& key,
-                         const std::string& expected, const std::string& found) const {
-    // appended piecewise: GCC 12 warns falsely (-Wrestrict, bug 105329) on long operator+ chains
-    std::string msg = source_;
-    if (where.IsDefined()) msg.append(":").append(std::to_string(where.Mark().line + 1));
-    msg.append(": key '").append(key).append("': expected ").append(expected);
-    msg.append(", found ").append(found);
-    throw ConfigError(msg);
-  }
-
-  YAML::Node Child(const YAML::Node& map, const std::string& path, const char* key,
-                   const char* expected) const {
-    const YAML::Node n = map[key];
-    if (!n.IsDefined()) Fail(map, Join(path, key), expected, "nothing (the key is missing)");
-    return n;
-  }
-
-  YAML::Node Map(const YAML::Node& map, const std::string& path, const char* key) const {
-    const YAML::Node n = Child(map, path, key, "a map");
-    if (!n.IsMap()) Fail(n, Join(path, key), "a map", Describe(n));
-    return n;
-  }
-
-  double Number(const YAML::Node& map, const std::string& path, const char* key) const {
-    return ToNumber(Child(map, path, key, "a number"), Join(path, key));
-  }
-
-  double ToNumber(const YAML::Node& n, const std::string& key) const {
-    double v = 0.0;
-    if (!n.IsScalar() || !YAML::convert<double>::decode(n, v) || !std::isfinite(v))
-      Fail(n, key, "a finite number", Describe(n));
-    return v;
-  }
-
-  long long Integer(const YAML::Node& map, const std::string& path, const char* key,
-                    long long lo, long long hi) const {
-    const YAML::Node n = Child(map, path, key, "an integer");
-    long long v = 0;
-    const std::string range = "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-    if (!n.IsScalar() || !YAML::convert<long long>::decode(n, v) || v < lo || v > hi)
-      Fail(n, Join(path, key), range, Describe(n));
-    return v;
-  }
-
-  bool Bool(const YAML::Node& map, const std::string& path, const char* key) const {
-    const YAML::Node n = Child(map, path, key, "true or false");
-    bool v = false;
-    if (!n.IsScalar() || !YAML::convert<bool>::decode(n, v))
-      Fail(n, Join(path, key), "true or false", Describe(n));
-    return v;
-  }
-
-  std::string String(const YAML::Node& map, const std::string& path, const char* key) const {
-    const YAML::Node n = Child(map, path, key, "a string");
-    if (!n.IsScalar() || n.Scalar().empty()) Fail(n, Join(path, key), "a non-empty string", Describe(n));
-    return n.Scalar();
-  }
-
-  std::string OneOf(const YAML::Node& map, const std::string& path, const char* key,
-                    std::initializer_list<const char*> choices) const {
-    const std::string v = String(map, path, key);
-    std::string expected = "one of";
-    for (const char* c : choices) {
-      if (v == c) return v;
-      expected += std::string(" '") + c + "'";
-    }
-    Fail(map[key], Join(path, key), expected, "'" + v + "'");
-  }
-
-  // optional keys: the default when absent
-  double NumberOr(const YAML::Node& map, const std::string& path, const char* key, double d) const {
-    return map[key].IsDefined() ? Number(map, path, key) : d;
-  }
-
-  void Keys(const YAML::Node& map, const std::string& path,
-            std::initializer_list<const char*> allowed) const {
-    for (const auto& kv : map) {
-      const std::string k = kv.first.as<std::string>();
-      bool ok = false;
-      std::string list;
-      for (const char* a : allowed) {
-        ok = ok || k == a;
-        list += std::string(list.empty() ? "" : ", ") + a;
-      }
-      if (!ok) Fail(kv.first, Join(path, k), "one of the keys " + list, "unknown key '" + k + "'");
-    }
-  }
-
-  static std::string Join(const std::string& path, const std::string& key) {
-    return path.empty() ? key : path + "." + key;
-  }
-
-  const std::string& source() const { return source_; }
-
- private:
-  std::string source_;
-};
+using detail::Describe;
+using detail::Reader;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
@@ -283,13 +174,7 @@ hal::HalConfig Read(const Reader& r, const YAML::Node& root) {
 
 hal::HalConfig ParseHalConfig(std::string_view yaml_text, std::string_view source_name) {
   const Reader r{std::string(source_name)};
-  YAML::Node root;
-  try {
-    root = YAML::Load(std::string(yaml_text));
-  } catch (const YAML::Exception& e) {
-    throw ConfigError(r.source() + ":" + std::to_string(e.mark.line + 1) +
-                      ": not valid YAML: expected well-formed YAML, found " + e.msg);
-  }
+  const YAML::Node root = detail::ParseYaml(r, std::string(yaml_text));
   hal::HalConfig c;
   try {
     c = Read(r, root);
@@ -305,13 +190,7 @@ hal::HalConfig ParseHalConfig(std::string_view yaml_text, std::string_view sourc
 }
 
 hal::HalConfig LoadHalConfig(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in)
-    throw ConfigError(path.string() + ": cannot open the HAL configuration (expected a readable "
-                      "YAML file)");
-  std::ostringstream text;
-  text << in.rdbuf();
-  return ParseHalConfig(text.str(), path.string());
+  return ParseHalConfig(detail::ReadTextFile(path, "the HAL configuration"), path.string());
 }
 
 }  // namespace hyq::config

@@ -147,6 +147,7 @@ class Bus {
   WorkingCounter wkc() const noexcept { return wkc_; }
   std::uint8_t sync_counter() const noexcept { return sync_counter_; }
   CanChannel& channel() noexcept { return *channel_; }
+  const CanChannel& channel() const noexcept { return *channel_; }
 
  private:
   void HandleFrame(const CanFrame& f, StateMachineContext& ctx) noexcept;

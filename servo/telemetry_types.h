@@ -134,6 +134,8 @@ struct ServoCommand {
     kSetMu,        // friction per foot used by the controller
     kSetController,
     kSetGains,     // feedback gains (scaled copies of the configured ones)
+    kRejected,     // a command that failed validation (the servo thread goes to its safe state
+                   // when safety.damp_on_bad_command; the channel published the reason)
   };
   Kind kind = Kind::kDisable;
   std::array<double, kTelemetryFeet> mu{};        // kSetMu

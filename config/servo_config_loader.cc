@@ -1,0 +1,394 @@
+#include "config/servo_config_loader.h"
+
+// GCC 12 warns falsely (-Wrestrict, bug 105329) on std::string operator+ chains at -O3; the
+// messages here are built that way for readability.
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC diagnostic ignored "-Wrestrict"
+#endif
+
+#include <yaml-cpp/yaml.h>
+
+#include <cmath>
+#include <string>
+
+#include "config/hal_config_loader.h"
+#include "config/yaml_reader.h"
+#include "hal/config_error.h"
+
+namespace hyq::config {
+namespace {
+
+using detail::Describe;
+using detail::Reader;
+using hal::ConfigError;
+
+// Upper bounds on the gains: beyond them the discrete loop at 1 kHz on HyQ's lightest joint
+// (HAA of a leg in the air, ≈ 0.3 kg·m² reflected) would not be stable, or the numbers are
+// typing errors (docs/servo.md, "Gains").
+constexpr double kMaxKpTau = 5000.0;  // N·m/rad
+constexpr double kMaxKdTau = 200.0;   // N·m·s/rad
+constexpr double kMaxKiTau = 5000.0;  // N·m/(rad·s)
+
+std::string Path(const std::string& path, const char* key) { return Reader::Join(path, key); }
+
+// One value per joint: one number (all joints), three (haa, hfe, kfe of every leg) or twelve.
+dynamics::VectorJ PerJoint(const Reader& r, const YAML::Node& map, const std::string& path,
+                           const char* key, double lo, double hi, const char* unit) {
+  const YAML::Node n = map[key];
+  const std::string p = Path(path, key);
+  const std::string range = "[" + detail::FormatNumber(lo) + ", " + detail::FormatNumber(hi) + "] " + unit;
+  dynamics::VectorJ v;
+  auto check = [&](const YAML::Node& e, const std::string& ep) {
+    const double x = r.ToNumber(e, ep);
+    if (x < lo || x > hi) r.Fail(e, ep, "a value in " + range, Describe(e));
+    return x;
+  };
+  if (n.IsScalar()) {
+    v.setConstant(check(n, p));
+  } else if (n.IsSequence() && n.size() == 3) {
+    for (int j = 0; j < 12; ++j)
+      v(j) = check(n[static_cast<std::size_t>(j % 3)], p + "[" + std::to_string(j % 3) + "]");
+  } else if (n.IsSequence() && n.size() == 12) {
+    for (int j = 0; j < 12; ++j)
+      v(j) = check(n[static_cast<std::size_t>(j)], p + "[" + std::to_string(j) + "]");
+  } else {
+    r.Fail(n, p,
+           "one number, 3 numbers (haa, hfe, kfe of every leg) or 12 numbers (lf, rf, lh, rh x "
+           "haa, hfe, kfe)",
+           Describe(n));
+  }
+  return v;
+}
+
+std::array<double, 4> PerFoot(const Reader& r, const YAML::Node& map, const std::string& path,
+                              const char* key, double lo, double hi) {
+  const YAML::Node n = map[key];
+  const std::string p = Path(path, key);
+  std::array<double, 4> v{};
+  const std::string range = "a friction coefficient in [" + detail::FormatNumber(lo) + ", " +
+                            detail::FormatNumber(hi) + "]";
+  auto check = [&](const YAML::Node& e, const std::string& ep) {
+    const double x = r.ToNumber(e, ep);
+    if (x < lo || x > hi) r.Fail(e, ep, range, Describe(e));
+    return x;
+  };
+  if (n.IsScalar()) {
+    v.fill(check(n, p));
+  } else if (n.IsSequence() && n.size() == 4) {
+    for (std::size_t f = 0; f < 4; ++f) v[f] = check(n[f], p + "[" + std::to_string(f) + "]");
+  } else {
+    r.Fail(n, p, "one number or 4 numbers (lf, rf, lh, rh)", Describe(n));
+  }
+  return v;
+}
+
+double Bounded(const Reader& r, const YAML::Node& map, const std::string& path, const char* key,
+               double d, double lo, double hi) {
+  if (!map[key].IsDefined()) return d;
+  const double x = r.Number(map, path, key);
+  if (x < lo || x > hi)
+    r.Fail(map[key], Path(path, key),
+           "a number in [" + detail::FormatNumber(lo) + ", " + detail::FormatNumber(hi) + "]",
+           Describe(map[key]));
+  return x;
+}
+
+int BoundedInt(const Reader& r, const YAML::Node& map, const std::string& path, const char* key,
+               int d, int lo, int hi) {
+  return map[key].IsDefined() ? static_cast<int>(r.Integer(map, path, key, lo, hi)) : d;
+}
+
+bool BoolOr(const Reader& r, const YAML::Node& map, const std::string& path, const char* key,
+            bool d) {
+  return map[key].IsDefined() ? r.Bool(map, path, key) : d;
+}
+
+std::string StringOr(const Reader& r, const YAML::Node& map, const std::string& path,
+                     const char* key, const std::string& d) {
+  return map[key].IsDefined() ? r.String(map, path, key) : d;
+}
+
+YAML::Node Section(const Reader& r, const YAML::Node& root, const char* key) {
+  if (!root[key].IsDefined()) return YAML::Node(YAML::NodeType::Map);
+  return r.Map(root, "", key);
+}
+
+std::string Resolve(const std::filesystem::path& base, const std::string& p) {
+  const std::filesystem::path fp(p);
+  return (fp.is_absolute() ? fp : base / fp).lexically_normal().string();
+}
+
+void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
+  const YAML::Node n = Section(r, root, "controller");
+  r.Keys(n, "controller", {"kind", "gains", "two_stage"});
+  auto& cc = c.controller;
+  if (n["kind"].IsDefined()) {
+    const std::string k = r.OneOf(n, "controller", "kind", {"pid", "noslip", "stage1", "two_stage"});
+    cc.kind = *servo::ParseControllerKind(k);
+  }
+  if (n["gains"].IsDefined()) {
+    const YAML::Node g = r.Map(n, "controller", "gains");
+    const std::string gp = "controller.gains";
+    r.Keys(g, gp, {"kp_tau", "kd_tau", "kp_acc", "kd_acc", "pid_kp", "pid_ki", "pid_kd",
+                   "pid_i_limit"});
+    const double rate = c.rate_hz;
+    if (g["kp_tau"].IsDefined()) cc.feedback.kp_tau = PerJoint(r, g, gp, "kp_tau", 0, kMaxKpTau, "N·m/rad");
+    if (g["kd_tau"].IsDefined()) cc.feedback.kd_tau = PerJoint(r, g, gp, "kd_tau", 0, kMaxKdTau, "N·m·s/rad");
+    // q̈ feedback: discrete stability at the loop rate needs kd·dt < 1 and kp·dt² < 1
+    if (g["kp_acc"].IsDefined()) cc.feedback.kp_acc = PerJoint(r, g, gp, "kp_acc", 0, 0.25 * rate * rate, "1/s² (0.25/dt²)");
+    if (g["kd_acc"].IsDefined()) cc.feedback.kd_acc = PerJoint(r, g, gp, "kd_acc", 0, 0.5 * rate, "1/s (0.5/dt)");
+    if (g["pid_kp"].IsDefined()) cc.pid.kp = PerJoint(r, g, gp, "pid_kp", 0, kMaxKpTau, "N·m/rad");
+    if (g["pid_ki"].IsDefined()) cc.pid.ki = PerJoint(r, g, gp, "pid_ki", 0, kMaxKiTau, "N·m/(rad·s)");
+    if (g["pid_kd"].IsDefined()) cc.pid.kd = PerJoint(r, g, gp, "pid_kd", 0, kMaxKdTau, "N·m·s/rad");
+    if (g["pid_i_limit"].IsDefined()) cc.pid.i_limit = PerJoint(r, g, gp, "pid_i_limit", 0, 1000, "N·m");
+  }
+  if (n["two_stage"].IsDefined()) {
+    const YAML::Node t = r.Map(n, "controller", "two_stage");
+    const std::string tp = "controller.two_stage";
+    r.Keys(t, tp, {"objective", "horizon_s", "project_contact_velocity", "max_iterations",
+                   "stage2_max_iterations", "time_budget_us", "tangent_directions"});
+    auto& s = cc.id;
+    if (t["objective"].IsDefined())
+      s.objective = r.OneOf(t, tp, "objective", {"maximum_dissipation", "kinetic_energy"}) ==
+                            "kinetic_energy"
+                        ? servo::StageOneObjective::kKineticEnergy
+                        : servo::StageOneObjective::kMaximumDissipation;
+    s.horizon_s = Bounded(r, t, tp, "horizon_s", s.horizon_s, 0.0, 0.1);
+    s.project_contact_velocity = BoolOr(r, t, tp, "project_contact_velocity", s.project_contact_velocity);
+    s.max_iterations = BoundedInt(r, t, tp, "max_iterations", s.max_iterations, 10, 10000);
+    s.stage2_max_iterations = BoundedInt(r, t, tp, "stage2_max_iterations", s.stage2_max_iterations, 10, 10000);
+    s.tangent_directions = BoundedInt(r, t, tp, "tangent_directions", s.tangent_directions, 4, 4);
+    if (t["time_budget_us"].IsDefined())
+      s.time_budget = std::chrono::nanoseconds(static_cast<std::int64_t>(
+          1000.0 * Bounded(r, t, tp, "time_budget_us", 0.0, 10.0, 1e6)));
+  }
+}
+
+void ReadReference(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
+  const YAML::Node n = Section(r, root, "reference");
+  r.Keys(n, "reference", {"kind", "enable_ramp_s", "trot", "figure_eight"});
+  if (n["kind"].IsDefined()) {
+    const std::string k = r.OneOf(n, "reference", "kind", {"stand", "trot", "figure_eight"});
+    c.reference = k == "trot"           ? servo::Reference::Kind::kTrot
+                  : k == "figure_eight" ? servo::Reference::Kind::kFigureEight
+                                        : servo::Reference::Kind::kStand;
+  }
+  c.enable_ramp_s = Bounded(r, n, "reference", "enable_ramp_s", c.enable_ramp_s, 0.0, 10.0);
+  if (n["trot"].IsDefined()) {
+    const YAML::Node t = r.Map(n, "reference", "trot");
+    const std::string p = "reference.trot";
+    r.Keys(t, p, {"step_frequency_Hz", "step_height_m", "stride_m", "duty_factor", "start_delay_s",
+                  "ramp_s"});
+    auto& s = c.trot;
+    s.step_frequency_Hz = Bounded(r, t, p, "step_frequency_Hz", s.step_frequency_Hz, 0.2, 4.0);
+    s.step_height_m = Bounded(r, t, p, "step_height_m", s.step_height_m, 0.0, 0.2);
+    s.stride_m = Bounded(r, t, p, "stride_m", s.stride_m, -0.4, 0.4);
+    s.duty_factor = Bounded(r, t, p, "duty_factor", s.duty_factor, 0.5, 0.95);
+    s.start_delay_s = Bounded(r, t, p, "start_delay_s", s.start_delay_s, 0.0, 60.0);
+    s.ramp_s = Bounded(r, t, p, "ramp_s", s.ramp_s, 0.0, 60.0);
+  }
+  if (n["figure_eight"].IsDefined()) {
+    const YAML::Node t = r.Map(n, "reference", "figure_eight");
+    const std::string p = "reference.figure_eight";
+    r.Keys(t, p, {"period_s", "amplitude_x_m", "amplitude_y_m", "start_delay_s", "ramp_s"});
+    auto& s = c.figure_eight;
+    s.period_s = Bounded(r, t, p, "period_s", s.period_s, 0.5, 60.0);
+    s.amplitude_x_m = Bounded(r, t, p, "amplitude_x_m", s.amplitude_x_m, 0.0, 0.15);
+    s.amplitude_y_m = Bounded(r, t, p, "amplitude_y_m", s.amplitude_y_m, 0.0, 0.15);
+    s.start_delay_s = Bounded(r, t, p, "start_delay_s", s.start_delay_s, 0.0, 60.0);
+    s.ramp_s = Bounded(r, t, p, "ramp_s", s.ramp_s, 0.0, 60.0);
+  }
+}
+
+void ReadRest(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
+  {
+    const YAML::Node n = Section(r, root, "realtime");
+    const std::string p = "realtime";
+    r.Keys(n, p, {"enabled", "priority", "cpu", "lock_memory", "prefault_stack_kib"});
+    auto& s = c.realtime;
+    s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
+    s.priority = BoundedInt(r, n, p, "priority", s.priority, 1, 99);
+    s.cpu = BoundedInt(r, n, p, "cpu", s.cpu, -1, 1023);
+    s.lock_memory = BoolOr(r, n, p, "lock_memory", s.lock_memory);
+    s.prefault_stack_kib = static_cast<std::uint32_t>(
+        BoundedInt(r, n, p, "prefault_stack_kib", static_cast<int>(s.prefault_stack_kib), 0, 8192));
+  }
+  {
+    const YAML::Node n = Section(r, root, "deadline");
+    const std::string p = "deadline";
+    r.Keys(n, p, {"budget_fraction", "max_consecutive_misses"});
+    c.deadline.budget_fraction = Bounded(r, n, p, "budget_fraction", c.deadline.budget_fraction, 0.05, 1.0);
+    c.deadline.max_consecutive_misses =
+        BoundedInt(r, n, p, "max_consecutive_misses", c.deadline.max_consecutive_misses, 1, 1000);
+  }
+  {
+    const YAML::Node n = Section(r, root, "safety");
+    const std::string p = "safety";
+    r.Keys(n, p, {"position_margin_rad", "max_velocity_rad_s", "max_position_jump_rad",
+                  "max_measured_torque_Nm", "max_gyro_rad_s", "max_accel_m_s2",
+                  "max_missing_cycles", "max_tilt_rad", "damping_Nms_per_rad",
+                  "damping_duration_s", "damp_on_bad_command"});
+    auto& s = c.safety;
+    s.position_margin_rad = Bounded(r, n, p, "position_margin_rad", s.position_margin_rad, 0.0, 1.0);
+    s.max_velocity_rad_s = Bounded(r, n, p, "max_velocity_rad_s", s.max_velocity_rad_s, 0.1, 100.0);
+    s.max_position_jump_rad = Bounded(r, n, p, "max_position_jump_rad", s.max_position_jump_rad, 1e-4, 1.0);
+    s.max_measured_torque_Nm = Bounded(r, n, p, "max_measured_torque_Nm", s.max_measured_torque_Nm, 1.0, 1e5);
+    s.max_gyro_rad_s = Bounded(r, n, p, "max_gyro_rad_s", s.max_gyro_rad_s, 0.1, 100.0);
+    s.max_accel_m_s2 = Bounded(r, n, p, "max_accel_m_s2", s.max_accel_m_s2, 1.0, 1e4);
+    s.max_missing_cycles = BoundedInt(r, n, p, "max_missing_cycles", s.max_missing_cycles, 1, 1000);
+    s.max_tilt_rad = Bounded(r, n, p, "max_tilt_rad", s.max_tilt_rad, 0.05, 3.2);
+    s.damping_Nms_per_rad = Bounded(r, n, p, "damping_Nms_per_rad", s.damping_Nms_per_rad, 0.0, kMaxKdTau);
+    s.damping_duration_s = Bounded(r, n, p, "damping_duration_s", s.damping_duration_s, 0.0, 60.0);
+    s.damp_on_bad_command = BoolOr(r, n, p, "damp_on_bad_command", s.damp_on_bad_command);
+  }
+  {
+    const YAML::Node n = Section(r, root, "estimator");
+    const std::string p = "estimator";
+    r.Keys(n, p, {"stance_force_N", "tilt_correction_gain", "velocity_blend",
+                  "imu_gravity_window_m_s2"});
+    auto& s = c.estimator;
+    s.stance_force_N = Bounded(r, n, p, "stance_force_N", s.stance_force_N, 0.0, 2000.0);
+    s.tilt_correction_gain = Bounded(r, n, p, "tilt_correction_gain", s.tilt_correction_gain, 0.0, 100.0);
+    s.velocity_blend = Bounded(r, n, p, "velocity_blend", s.velocity_blend, 0.0, 1.0);
+    s.imu_gravity_window_m_s2 = Bounded(r, n, p, "imu_gravity_window_m_s2", s.imu_gravity_window_m_s2, 0.0, 9.81);
+  }
+  {
+    const YAML::Node n = Section(r, root, "telemetry");
+    const std::string p = "telemetry";
+    r.Keys(n, p, {"enabled", "lcm_url", "channel_prefix", "state_decimation", "timing_decimation",
+                  "health_decimation"});
+    auto& s = c.telemetry;
+    s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
+    s.lcm_url = StringOr(r, n, p, "lcm_url", s.lcm_url);
+    const std::string scheme = s.lcm_url.substr(0, s.lcm_url.find("://"));
+    if (s.lcm_url.find("://") == std::string::npos ||
+        (scheme != "udpm" && scheme != "memq" && scheme != "file"))
+      r.Fail(n["lcm_url"], "telemetry.lcm_url",
+             "an LCM URL udpm://GROUP:PORT?ttl=N, memq:// or file://", "'" + s.lcm_url + "'");
+    s.channel_prefix = StringOr(r, n, p, "channel_prefix", s.channel_prefix);
+    s.state_decimation = BoundedInt(r, n, p, "state_decimation", s.state_decimation, 1, 100000);
+    s.timing_decimation = BoundedInt(r, n, p, "timing_decimation", s.timing_decimation, 1, 100000);
+    s.health_decimation = BoundedInt(r, n, p, "health_decimation", s.health_decimation, 1, 100000);
+  }
+  {
+    const YAML::Node n = Section(r, root, "commands");
+    const std::string p = "commands";
+    r.Keys(n, p, {"enabled", "channel", "max_rate_hz"});
+    c.command.enabled = BoolOr(r, n, p, "enabled", c.command.enabled);
+    c.command.channel = StringOr(r, n, p, "channel", c.command.channel);
+    c.command.max_rate_hz = Bounded(r, n, p, "max_rate_hz", c.command.max_rate_hz, 0.1, 1000.0);
+  }
+}
+
+servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
+                        const std::filesystem::path& base_dir) {
+  if (!root.IsMap()) r.Fail(root, "(top level)", "a map", Describe(root));
+  r.Keys(root, "", {"robot", "loop", "buses", "controller", "contact", "reference", "operation",
+                    "realtime", "deadline", "safety", "estimator", "telemetry", "commands"});
+  servo::ServoConfig c;
+  c.source = r.source();
+
+  const YAML::Node robot = r.Map(root, "", "robot");
+  r.Keys(robot, "robot", {"urdf", "hal"});
+  c.urdf = Resolve(base_dir, r.String(robot, "robot", "urdf"));
+  c.hal_file = Resolve(base_dir, r.String(robot, "robot", "hal"));
+
+  const YAML::Node loop = Section(r, root, "loop");
+  r.Keys(loop, "loop", {"rate_hz", "clock", "duration_s"});
+  c.rate_hz = Bounded(r, loop, "loop", "rate_hz", c.rate_hz, 50.0, 10000.0);
+  if (loop["clock"].IsDefined())
+    c.clock = r.OneOf(loop, "loop", "clock", {"realtime", "lockstep"}) == "lockstep"
+                  ? servo::ClockMode::kLockstep
+                  : servo::ClockMode::kRealtime;
+  c.duration_s = Bounded(r, loop, "loop", "duration_s", c.duration_s, 0.0, 1e7);
+
+  ReadController(r, root, c);
+
+  const YAML::Node contact = Section(r, root, "contact");
+  r.Keys(contact, "contact", {"mu"});
+  if (contact["mu"].IsDefined()) c.mu = PerFoot(r, contact, "contact", "mu", 0.0, 2.0);
+
+  ReadReference(r, root, c);
+
+  const YAML::Node op = Section(r, root, "operation");
+  r.Keys(op, "operation", {"auto_enable"});
+  c.auto_enable = BoolOr(r, op, "operation", "auto_enable", c.auto_enable);
+
+  ReadRest(r, root, c);
+
+  // the HAL file, then the interface overrides of this file
+  c.hal = LoadHalConfig(c.hal_file);
+  if (root["buses"].IsDefined()) {
+    const YAML::Node b = r.Map(root, "", "buses");
+    for (const auto& kv : b) {
+      const std::string name = kv.first.as<std::string>();
+      bool found = false;
+      for (auto& bus : c.hal.buses)
+        if (bus.name == name) {
+          bus.interface = r.String(b, "buses", name.c_str());
+          found = true;
+        }
+      if (!found) {
+        std::string names;
+        for (const auto& bus : c.hal.buses) names += (names.empty() ? "" : ", ") + bus.name;
+        r.Fail(kv.first, "buses." + name, "a bus of " + c.hal_file + " (" + names + ")",
+               "'" + name + "'");
+      }
+    }
+  }
+  c.hal.timing.cycle_period_s = 1.0 / c.rate_hz;
+  return c;
+}
+
+}  // namespace
+
+void ValidateServoConfig(const servo::ServoConfig& c) {
+  const double dt = c.period_s();
+  auto fail = [&](const std::string& key, const std::string& expected, const std::string& found) {
+    throw ConfigError(c.source + ": key '" + key + "': expected " + expected + ", found " + found);
+  };
+  if (std::abs(c.hal.timing.cycle_period_s - dt) > 1e-12)
+    fail("loop.rate_hz", "the HAL's cycle period 1/rate_hz",
+         detail::FormatNumber(c.hal.timing.cycle_period_s) + " s");
+  if (c.controller.feedback.kd_acc.maxCoeff() * dt > 0.5)
+    fail("controller.gains.kd_acc", "kd_acc · dt <= 0.5 at " + detail::FormatNumber(c.rate_hz) + " Hz",
+         detail::FormatNumber(c.controller.feedback.kd_acc.maxCoeff()));
+  if (c.controller.feedback.kp_acc.maxCoeff() * dt * dt > 0.25)
+    fail("controller.gains.kp_acc", "kp_acc · dt² <= 0.25 at " + detail::FormatNumber(c.rate_hz) + " Hz",
+         detail::FormatNumber(c.controller.feedback.kp_acc.maxCoeff()));
+  const bool pd = c.controller.kind == servo::ControllerKind::kPid
+                      ? c.controller.pid.kp.maxCoeff() > 0.0
+                      : (c.controller.feedback.kp_tau.maxCoeff() > 0.0 ||
+                         c.controller.feedback.kp_acc.maxCoeff() > 0.0);
+  if (!pd)
+    fail("controller.gains", "a position gain > 0 for the chosen controller (" +
+                                 std::string(servo::ToString(c.controller.kind)) + ")",
+         "all position gains 0 (the robot would not hold a posture)");
+  try {
+    hal::ValidateHalConfig(c.hal);  // the bus load at this rate
+  } catch (const ConfigError& e) {
+    throw ConfigError(c.source + ": key 'loop.rate_hz' = " + detail::FormatNumber(c.rate_hz) +
+                      " Hz with " + c.hal_file + ": " + e.what());
+  }
+}
+
+servo::ServoConfig ParseServoConfig(std::string_view yaml_text, std::string_view source_name,
+                                    const std::filesystem::path& base_dir) {
+  const Reader r{std::string(source_name)};
+  const YAML::Node root = detail::ParseYaml(r, std::string(yaml_text));
+  servo::ServoConfig c;
+  try {
+    c = Read(r, root, base_dir);
+  } catch (const YAML::Exception& e) {
+    throw ConfigError(r.source() + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
+  }
+  ValidateServoConfig(c);
+  return c;
+}
+
+servo::ServoConfig LoadServoConfig(const std::filesystem::path& path) {
+  return ParseServoConfig(detail::ReadTextFile(path, "the servo configuration"), path.string(),
+                          path.parent_path());
+}
+
+}  // namespace hyq::config

@@ -1,0 +1,147 @@
+// The servo cycle (docs/servo.md): HAL read → commands → input checks → state estimation →
+// reference → controller → safety → HAL write → telemetry push. One call of Cycle() per period,
+// from one thread; nothing in it allocates, locks, logs, blocks or throws. The clock (real time
+// or lock-step) is the caller's: servo/servo_runner.h.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+
+#include "dynamics/cycle_dynamics.h"
+#include "hal/hal.h"
+#include "servo/controller.h"
+#include "servo/estimator.h"
+#include "servo/histogram.h"
+#include "servo/reference.h"
+#include "servo/safety.h"
+#include "servo/servo_config.h"
+#include "servo/telemetry_types.h"
+
+namespace hyq::servo {
+
+/// Where snapshots and events go and commands come from (the LCM telemetry thread's rings, or a
+/// test double). Every call is made from the servo thread and must be wait-free.
+class TelemetrySink {
+ public:
+  virtual ~TelemetrySink() = default;
+  virtual bool Push(const TelemetrySnapshot& s) noexcept = 0;
+  virtual bool PushEvent(const SafetyEvent& e) noexcept = 0;
+  virtual bool PopCommand(ServoCommand* c) noexcept = 0;
+};
+
+/// Counters and distributions of a run (for the summary and the benchmark).
+struct LoopStats {
+  std::uint64_t cycles = 0;
+  std::uint64_t active_cycles = 0;
+  std::uint64_t deadline_misses = 0;
+  std::uint32_t consecutive_misses = 0, max_consecutive_misses = 0;
+  std::uint64_t skipped_cycles = 0;           // kept by the runner
+  std::uint64_t telemetry_drops = 0, event_drops = 0;
+  std::uint64_t commands_applied = 0, commands_rejected = 0;
+  std::uint64_t controller_fallbacks = 0;
+  LatencyHistogram wakeup;                    // wake-up latency
+  LatencyHistogram cycle;                     // read start .. write end
+  LatencyHistogram control;                   // dynamics + controller
+  double tracking_error_sum_rad = 0.0;        // Σ ‖q_ref − q‖ over ACTIVE cycles
+  double tracking_error_max_rad = 0.0;
+  double qp_time_sum_us = 0.0, qp_time_max_us = 0.0;  // Stage I + II, ACTIVE cycles
+};
+
+class ServoLoop {
+ public:
+  /// Configuration time: builds the estimator, the reference, every controller (QP workspaces)
+  /// and the dynamics workspace. `hal` and `sink` (may be null) are not owned.
+  ServoLoop(const ServoConfig& config, const dynamics::Model& model, hal::Hal& hal,
+            TelemetrySink* sink);
+  ~ServoLoop();
+  ServoLoop(const ServoLoop&) = delete;
+  ServoLoop& operator=(const ServoLoop&) = delete;
+
+  /// After the bring-up (every device in OP): INIT → STANDBY.
+  void Start(std::int64_t now_ns) noexcept;
+
+  /// One cycle at `now_ns` (monotonic or virtual); `wakeup_latency_ns` is for the record.
+  void Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexcept;
+
+  /// A controlled stop (from any thread, e.g. a signal handler's thread): damping if ACTIVE,
+  /// then zero torque and the devices back to PRE-OP.
+  void RequestStop() noexcept { stop_requested_.store(true, std::memory_order_relaxed); }
+  /// STOPPED and the devices in PRE-OP (or the stop timeout passed): the runner may return.
+  bool finished() const noexcept { return finished_; }
+
+  ServoMode mode() const noexcept { return safety_.mode(); }
+  /// The mode and cycle count for other threads (progress lines, supervisors).
+  ServoMode published_mode() const noexcept { return published_mode_.load(std::memory_order_relaxed); }
+  std::uint64_t published_cycles() const noexcept { return published_cycles_.load(std::memory_order_relaxed); }
+  /// Seconds spent in ACTIVE so far, for other threads.
+  double published_active_s() const noexcept { return published_active_s_.load(std::memory_order_relaxed); }
+  const LoopStats& stats() const noexcept { return stats_; }
+  const TelemetrySnapshot& snapshot() const noexcept { return snap_; }
+  const Controller& controller() const noexcept { return *controller_; }
+  const StateEstimator& estimator() const noexcept { return estimator_; }
+  std::uint64_t events() const noexcept { return safety_.events(); }
+  /// Events of the run by reason (index: EventReason).
+  const std::array<std::uint32_t, 32>& events_by_reason() const noexcept { return by_reason_; }
+
+  /// The runner skipped `n` periods to get back on schedule.
+  void CountSkipped(std::uint64_t n) noexcept { stats_.skipped_cycles += n; }
+
+  /// Fault injection: the next `cycles` cycles each take `extra_ns` longer (busy wait).
+  void InjectOverrun(std::int64_t extra_ns, int cycles) noexcept {
+    overrun_ns_.store(extra_ns, std::memory_order_relaxed);
+    overrun_cycles_.store(cycles, std::memory_order_relaxed);
+  }
+
+ private:
+  void ApplyCommand(const ServoCommand& c, std::int64_t now_ns) noexcept;
+  void EnterActive() noexcept;
+  void SampleReference() noexcept;
+  void RunController() noexcept;
+  void Damping() noexcept;
+  void FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept;
+  void DrainEvents() noexcept;
+
+  ServoConfig config_;
+  const dynamics::Model& model_;
+  hal::Hal& hal_;
+  TelemetrySink* sink_;
+  double dt_;
+  std::int64_t budget_ns_;
+
+  InputChecker checker_;
+  SafetyStateMachine safety_;
+  StateEstimator estimator_;
+  std::unique_ptr<Reference> reference_;
+  std::unique_ptr<Controller> controller_;
+  std::unique_ptr<dynamics::CycleDynamics> dyn_;
+  ContactEnvironment env_;
+  FeedbackGains base_gains_;
+  ReferenceSample ref_;
+  JointReference joint_ref_;  // after the enable ramp
+  IdOutput out_;
+  IdStatus id_status_ = IdStatus::kOk;
+  dynamics::VectorJ tau_ = dynamics::VectorJ::Zero();
+  dynamics::VectorJ q0_ = dynamics::VectorJ::Zero();  // measured posture at enable
+  double t_ref_ = 0.0;
+  double active_time_ = 0.0;
+  EstimatorStatus est_status_ = EstimatorStatus::kNoImu;
+  ServoMode last_mode_ = ServoMode::kInit;
+  bool ack_pending_ = false;
+  std::uint64_t ack_deadline_cycle_ = 0;
+  bool finished_ = false;
+  std::uint64_t cycle_ = 0;
+  std::uint64_t stop_cycle_ = 0;
+  std::atomic<bool> stop_requested_{false};
+  std::atomic<ServoMode> published_mode_{ServoMode::kInit};
+  std::atomic<std::uint64_t> published_cycles_{0};
+  std::atomic<double> published_active_s_{0.0};
+  std::atomic<std::int64_t> overrun_ns_{0};
+  std::atomic<int> overrun_cycles_{0};
+  LoopStats stats_;
+  TelemetrySnapshot snap_;
+  CycleTiming timing_;
+  std::array<std::uint32_t, 32> by_reason_{};
+};
+
+}  // namespace hyq::servo

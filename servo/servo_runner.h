@@ -1,0 +1,79 @@
+// The clocks that drive a ServoLoop (docs/servo.md, "Timing"), the bring-up that precedes it,
+// and the real-time set-up of the servo thread.
+//
+//  - real time: the period on absolute CLOCK_MONOTONIC time (clock_nanosleep TIMER_ABSTIME);
+//    wake-up latency = actual − scheduled wake-up; a cycle that ends after the next wake-up
+//    was due skips the periods it overran (counted) instead of running them back to back.
+//  - lock-step: virtual time (cycle × period). After each cycle's SYNC the runner waits until
+//    every device that owes an answer has answered (or a wall-clock timeout passes) and runs the
+//    next cycle at once: with a simulator that steps once per SYNC the closed loop is
+//    deterministic and runs as fast as both sides compute.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "hal/can_channel.h"
+#include "hal/hal.h"
+#include "servo/servo_config.h"
+#include "servo/servo_loop.h"
+
+namespace hyq::servo {
+
+std::int64_t MonotonicNs() noexcept;
+
+/// What the real-time set-up of the calling thread achieved; `warnings` name each refused
+/// request and the capability or limit that is missing (RLIMIT_RTPRIO, CAP_SYS_NICE,
+/// RLIMIT_MEMLOCK, CAP_IPC_LOCK).
+struct RealtimeReport {
+  bool fifo = false, pinned = false, locked = false;
+  std::vector<std::string> warnings;
+};
+/// SCHED_FIFO at settings.priority, pinned to settings.cpu, mlockall, the stack pre-faulted.
+/// Configuration time (allocates for the report).
+RealtimeReport SetUpRealtimeThread(const RealtimeSettings& settings);
+
+/// A channel wrapper that lets the lock-step runner see whether the TPDOs answering the last SYNC
+/// have arrived before the HAL's Read takes them (Read gets exactly the same frames, in order).
+class LockstepChannel : public hal::CanChannel {
+ public:
+  explicit LockstepChannel(std::unique_ptr<hal::CanChannel> inner);
+  hal::CanStatus Send(std::span<const hal::CanFrame> frames, std::size_t* sent) noexcept override;
+  hal::CanStatus Receive(std::span<hal::CanFrame> out, std::size_t* received) noexcept override;
+  const hal::CanCounters& counters() const noexcept override { return inner_->counters(); }
+  bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
+  std::string_view name() const noexcept override { return inner_->name(); }
+  int poll_fd() const noexcept override { return inner_->poll_fd(); }
+  hal::CanChannel& inner() noexcept { return *inner_; }
+
+  /// Moves pending frames into the buffer; returns the TPDOs buffered since the last Receive.
+  int Pump() noexcept;
+
+ private:
+  std::unique_ptr<hal::CanChannel> inner_;
+  std::vector<hal::CanFrame> buffer_;
+  std::size_t head_ = 0, tail_ = 0;
+  int tpdos_ = 0;
+};
+
+/// Waits (poll on the channels' descriptors) until the channels hold as many TPDOs as the HAL's
+/// devices owe for the last SYNC, at most `timeout_ns` of wall time. Returns whether they did.
+bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channels,
+                   std::int64_t timeout_ns) noexcept;
+
+/// Brings every device to OP with the configured clock (throws hal::ConfigError with the HAL's
+/// report on timeout); returns the time of the last bring-up cycle. `channels` is empty in real
+/// time.
+std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
+                     std::span<LockstepChannel* const> channels);
+
+/// Runs the loop until loop.finished(). Real time: from `start_ns`; lock-step: virtual time from
+/// `start_ns`, waiting on `channels`.
+void RunRealtime(ServoLoop& loop, const ServoConfig& config, std::int64_t start_ns) noexcept;
+void RunLockstep(ServoLoop& loop, const hal::Hal& hal, const ServoConfig& config,
+                 std::span<LockstepChannel* const> channels, std::int64_t start_ns) noexcept;
+
+}  // namespace hyq::servo

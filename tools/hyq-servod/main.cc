@@ -1,0 +1,352 @@
+// hyq-servod: the servo daemon (docs/servo.md). Loads and validates the configuration, brings
+// every device to OP through the HAL, then runs the servo loop on a real-time thread until
+// SIGINT / SIGTERM (or the configured duration): controlled stop, devices back to PRE-OP,
+// telemetry flushed, a summary printed.
+#include <signal.h>
+#include <time.h>
+
+#include <atomic>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "config/servo_config_loader.h"
+#include "drivers/channel_factory.h"
+#include "dynamics/urdf_loader.h"
+#include "hal/hal.h"
+#include "servo/servo_loop.h"
+#include "servo/servo_runner.h"
+
+namespace {
+
+using hyq::servo::ServoMode;
+
+struct Options {
+  std::string config = HYQ_DEFAULT_SERVO_CONFIG;
+  bool check = false;
+  bool quiet = false;
+  bool exit_on_fault = false;
+  std::map<std::string, std::string> interfaces;
+  std::optional<std::string> clock, controller, reference, lcm_url;
+  std::optional<double> duration;
+  std::optional<std::array<double, 4>> mu;
+  bool auto_enable = false, no_telemetry = false, commands = false;
+  std::string summary;
+  double overrun_at_s = -1.0, overrun_us = 0.0;
+  int overrun_cycles = 0;
+};
+
+[[noreturn]] void Usage(int code) {
+  std::fprintf(code == 0 ? stdout : stderr,
+R"(usage: hyq-servod [--config FILE] [--check] [options]
+The HyQ servo daemon: every period it reads the joints and the IMU over CAN (HAL), estimates
+the base state, follows the reference with the configured controller (two-stage contact ID by
+default), checks everything (safety) and writes the joint torques; LCM telemetry on the side.
+  --config FILE          servo configuration (default %s)
+  --check                validate the configuration (and the HAL file and URDF it names), exit
+  --interface BUS=SPEC   open bus BUS on SPEC (socketcan:can0, udp::43101, ...) instead of the
+                         configured interface
+  --clock realtime|lockstep
+                         absolute-time periods, or virtual time waiting for the devices' answers
+                         after each SYNC (hardware-in-the-loop with hyq-sim --mode lockstep)
+  --controller KIND      pid, noslip, stage1 or two_stage
+  --reference KIND       stand, trot or figure_eight
+  --mu M | --mu A,B,C,D  friction coefficient the controller assumes (all feet / lf,rf,lh,rh)
+  --duration S           stop after S seconds in ACTIVE (0: run until SIGINT/SIGTERM)
+  --auto-enable          go from STANDBY to ACTIVE without an operator command
+  --commands             open the LCM command channel (off unless configured or given)
+  --exit-on-fault        stop (devices to PRE-OP, exit 3) once in FAULT instead of waiting for
+                         an acknowledgement
+  --no-telemetry         no LCM at all
+  --lcm-url URL          telemetry URL (default from the configuration)
+  --summary FILE         write the run's summary as JSON
+  --inject-overrun AT:US[:N]
+                         fault injection: N cycles (default 10) overrun by US microseconds,
+                         AT seconds after ACTIVE
+  --quiet                no progress line
+  -h, --help             this text
+Exit status: 0 after a controlled stop, 1 configuration or start-up error, 2 bad command line,
+3 stopped in FAULT (--exit-on-fault).
+)",
+               HYQ_DEFAULT_SERVO_CONFIG);
+  std::exit(code);
+}
+
+[[noreturn]] void BadFlag(const std::string& flag, const std::string& expected,
+                          const std::string& found) {
+  std::fprintf(stderr, "hyq-servod: %s: expected %s, found '%s' (see --help)\n", flag.c_str(),
+               expected.c_str(), found.c_str());
+  std::exit(2);
+}
+
+double ParseNumber(const std::string& flag, const std::string& v, double lo, double hi) {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (v.empty() || end != v.c_str() + v.size() || !(x >= lo && x <= hi))
+    BadFlag(flag, "a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]", v);
+  return x;
+}
+
+Options Parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) BadFlag(a, "a value after it", "nothing");
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") Usage(0);
+    else if (a == "--config") o.config = value();
+    else if (a == "--check") o.check = true;
+    else if (a == "--quiet") o.quiet = true;
+    else if (a == "--auto-enable") o.auto_enable = true;
+    else if (a == "--commands") o.commands = true;
+    else if (a == "--exit-on-fault") o.exit_on_fault = true;
+    else if (a == "--no-telemetry") o.no_telemetry = true;
+    else if (a == "--lcm-url") o.lcm_url = value();
+    else if (a == "--summary") o.summary = value();
+    else if (a == "--interface") {
+      const std::string v = value();
+      const auto eq = v.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == v.size()) BadFlag(a, "BUS=SPEC", v);
+      o.interfaces[v.substr(0, eq)] = v.substr(eq + 1);
+    } else if (a == "--clock") {
+      o.clock = value();
+      if (*o.clock != "realtime" && *o.clock != "lockstep") BadFlag(a, "realtime or lockstep", *o.clock);
+    } else if (a == "--controller") {
+      o.controller = value();
+      if (!hyq::servo::ParseControllerKind(*o.controller))
+        BadFlag(a, "pid, noslip, stage1 or two_stage", *o.controller);
+    } else if (a == "--reference") {
+      o.reference = value();
+      if (*o.reference != "stand" && *o.reference != "trot" && *o.reference != "figure_eight")
+        BadFlag(a, "stand, trot or figure_eight", *o.reference);
+    } else if (a == "--duration") {
+      o.duration = ParseNumber(a, value(), 0.0, 1e7);
+    } else if (a == "--mu") {
+      const std::string v = value();
+      std::array<double, 4> mu{};
+      std::vector<std::string> parts;
+      std::size_t start = 0;
+      for (std::size_t k = 0; k <= v.size(); ++k)
+        if (k == v.size() || v[k] == ',') {
+          parts.push_back(v.substr(start, k - start));
+          start = k + 1;
+        }
+      if (parts.size() != 1 && parts.size() != 4) BadFlag(a, "one number or four (lf,rf,lh,rh)", v);
+      for (std::size_t f = 0; f < 4; ++f)
+        mu[f] = ParseNumber(a, parts[parts.size() == 1 ? 0 : f], 0.0, 2.0);
+      o.mu = mu;
+    } else if (a == "--inject-overrun") {
+      const std::string v = value();
+      const auto c1 = v.find(':');
+      if (c1 == std::string::npos) BadFlag(a, "AT:US[:N]", v);
+      const auto c2 = v.find(':', c1 + 1);
+      o.overrun_at_s = ParseNumber(a, v.substr(0, c1), 0.0, 1e6);
+      o.overrun_us = ParseNumber(a, v.substr(c1 + 1, c2 == std::string::npos ? std::string::npos : c2 - c1 - 1), 0.0, 1e6);
+      o.overrun_cycles = c2 == std::string::npos ? 10 : static_cast<int>(ParseNumber(a, v.substr(c2 + 1), 1, 1e6));
+    } else {
+      BadFlag("command line", "an option (see --help)", a);
+    }
+  }
+  return o;
+}
+
+// Applies the command-line overrides; throws ConfigError naming the flag.
+void Override(const Options& o, hyq::servo::ServoConfig& c) {
+  for (const auto& [bus, spec] : o.interfaces) {
+    bool found = false;
+    for (auto& b : c.hal.buses)
+      if (b.name == bus) {
+        b.interface = spec;
+        found = true;
+      }
+    if (!found) BadFlag("--interface", "a bus name of " + c.hal_file, bus);
+  }
+  if (o.clock) c.clock = *o.clock == "lockstep" ? hyq::servo::ClockMode::kLockstep
+                                                 : hyq::servo::ClockMode::kRealtime;
+  if (o.controller) c.controller.kind = *hyq::servo::ParseControllerKind(*o.controller);
+  if (o.reference)
+    c.reference = *o.reference == "trot"           ? hyq::servo::Reference::Kind::kTrot
+                  : *o.reference == "figure_eight" ? hyq::servo::Reference::Kind::kFigureEight
+                                                   : hyq::servo::Reference::Kind::kStand;
+  if (o.duration) c.duration_s = *o.duration;
+  if (o.mu) c.mu = *o.mu;
+  if (o.auto_enable) c.auto_enable = true;
+  if (o.commands) c.command.enabled = true;
+  if (o.no_telemetry) c.telemetry.enabled = false;
+  if (o.lcm_url) c.telemetry.lcm_url = *o.lcm_url;
+  hyq::config::ValidateServoConfig(c);
+}
+
+double Us(std::int64_t ns) { return 1e-3 * static_cast<double>(ns); }
+
+nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::ServoConfig& c,
+                       double wall_s) {
+  const auto& s = loop.stats();
+  nlohmann::json j;
+  j["controller"] = hyq::servo::ToString(c.controller.kind);
+  j["clock"] = hyq::servo::ToString(c.clock);
+  j["final_mode"] = hyq::servo::ToString(loop.mode());
+  j["cycles"] = s.cycles;
+  j["active_s"] = static_cast<double>(s.active_cycles) * c.period_s();
+  j["wall_s"] = wall_s;
+  const double n = static_cast<double>(std::max<std::uint64_t>(s.active_cycles, 1));
+  j["tracking_error_mean_rad"] = s.tracking_error_sum_rad / n;
+  j["tracking_error_max_rad"] = s.tracking_error_max_rad;
+  j["qp_time_mean_us"] = s.qp_time_sum_us / n;
+  j["qp_time_max_us"] = s.qp_time_max_us;
+  j["controller_fallbacks"] = s.controller_fallbacks;
+  auto hist = [](const hyq::servo::LatencyHistogram& h) {
+    return nlohmann::json{{"count", h.count()},         {"mean_us", 1e-3 * h.mean_ns()},
+                          {"p50_us", Us(h.Percentile(0.5))}, {"p99_us", Us(h.Percentile(0.99))},
+                          {"p999_us", Us(h.Percentile(0.999))}, {"max_us", Us(h.max_ns())}};
+  };
+  j["cycle_time"] = hist(s.cycle);
+  j["control_time"] = hist(s.control);
+  j["wakeup_latency"] = hist(s.wakeup);
+  j["deadline_misses"] = s.deadline_misses;
+  j["max_consecutive_misses"] = s.max_consecutive_misses;
+  j["skipped_cycles"] = s.skipped_cycles;
+  j["telemetry_drops"] = s.telemetry_drops;
+  j["event_drops"] = s.event_drops;
+  j["commands_applied"] = s.commands_applied;
+  j["commands_rejected"] = s.commands_rejected;
+  nlohmann::json ev = nlohmann::json::object();
+  for (std::size_t r = 0; r < loop.events_by_reason().size(); ++r)
+    if (loop.events_by_reason()[r] != 0)
+      ev[hyq::servo::ToString(static_cast<hyq::servo::EventReason>(r))] = loop.events_by_reason()[r];
+  j["events"] = ev;
+  return j;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Options opt = Parse(argc, argv);
+  hyq::servo::ServoConfig config;
+  std::unique_ptr<hyq::dynamics::Model> model;
+  try {
+    config = hyq::config::LoadServoConfig(opt.config);
+    Override(opt, config);
+    model = std::make_unique<hyq::dynamics::Model>(hyq::dynamics::LoadModelFromUrdf(config.urdf));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hyq-servod: %s\n", e.what());
+    return 1;
+  }
+  if (opt.check) {
+    std::printf("%s: OK (%s, %g Hz, %s clock, %zu buses, reference %s, URDF %s)\n",
+                opt.config.c_str(), hyq::servo::ToString(config.controller.kind), config.rate_hz,
+                hyq::servo::ToString(config.clock), config.hal.buses.size(),
+                config.reference == hyq::servo::Reference::Kind::kTrot ? "trot"
+                : config.reference == hyq::servo::Reference::Kind::kFigureEight ? "figure_eight"
+                                                                                : "stand",
+                config.urdf.c_str());
+    return 0;
+  }
+
+  // signals: blocked in every thread, taken by the main thread with sigtimedwait
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
+
+  std::vector<std::unique_ptr<hyq::hal::CanChannel>> owned;
+  std::vector<hyq::servo::LockstepChannel*> lockstep;
+  std::vector<hyq::hal::CanChannel*> channels;
+  std::unique_ptr<hyq::hal::Hal> hal;
+  std::unique_ptr<hyq::servo::TelemetrySink> telemetry;  // TODO(lcm merge)
+  std::unique_ptr<hyq::servo::ServoLoop> loop;
+  try {
+    for (const auto& b : config.hal.buses) {
+      auto ch = hyq::drivers::OpenChannel(b.interface);
+      if (config.clock == hyq::servo::ClockMode::kLockstep) {
+        auto ls = std::make_unique<hyq::servo::LockstepChannel>(std::move(ch));
+        lockstep.push_back(ls.get());
+        ch = std::move(ls);
+      }
+      channels.push_back(ch.get());
+      owned.push_back(std::move(ch));
+    }
+    hal = std::make_unique<hyq::hal::Hal>(config.hal, channels);
+    loop = std::make_unique<hyq::servo::ServoLoop>(config, *model, *hal, telemetry.get());
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hyq-servod: start-up failed: %s\n", e.what());
+    return 1;
+  }
+  if (!opt.quiet)
+    std::fprintf(stderr, "hyq-servod: %s, %g Hz, %s clock, %s; bringing %zu buses up\n",
+                 hyq::servo::ToString(config.controller.kind), config.rate_hz,
+                 hyq::servo::ToString(config.clock),
+                 telemetry ? config.telemetry.lcm_url.c_str() : "no telemetry",
+                 config.hal.buses.size());
+
+  std::int64_t start_ns = 0;
+  try {
+    start_ns = hyq::servo::BringUp(*hal, config, lockstep);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hyq-servod: bring-up failed: %s\n", e.what());
+    return 1;
+  }
+
+  const std::int64_t wall0 = hyq::servo::MonotonicNs();
+  std::atomic<bool> servo_done{false};
+  hyq::servo::RealtimeReport rt;
+  std::thread servo([&] {
+    rt = hyq::servo::SetUpRealtimeThread(config.realtime);
+    loop->Start(start_ns);
+    if (config.clock == hyq::servo::ClockMode::kLockstep)
+      hyq::servo::RunLockstep(*loop, *hal, config, lockstep, start_ns);
+    else
+      hyq::servo::RunRealtime(*loop, config, hyq::servo::MonotonicNs());
+    servo_done.store(true);
+  });
+
+  bool warned = false, overrun_done = false, stopped_in_fault = false;
+  std::int64_t next_progress = hyq::servo::MonotonicNs() + 1'000'000'000;
+  while (!servo_done.load()) {
+    const timespec wait{0, 50'000'000};
+    const int sig = sigtimedwait(&signals, nullptr, &wait);
+    if (sig == SIGINT || sig == SIGTERM) {
+      if (!opt.quiet) std::fprintf(stderr, "hyq-servod: %s: controlled stop\n", strsignal(sig));
+      loop->RequestStop();
+    }
+    if (!warned && loop->published_cycles() > 0) {  // the servo thread has set itself up
+      warned = true;
+      for (const auto& w : rt.warnings) std::fprintf(stderr, "hyq-servod: warning: %s\n", w.c_str());
+    }
+    const ServoMode mode = loop->published_mode();
+    if (opt.exit_on_fault && mode == ServoMode::kFault && !stopped_in_fault) {
+      stopped_in_fault = true;
+      loop->RequestStop();
+    }
+    if (!overrun_done && opt.overrun_at_s >= 0.0 && mode == ServoMode::kActive &&
+        loop->published_active_s() >= opt.overrun_at_s) {
+      overrun_done = true;
+      loop->InjectOverrun(static_cast<std::int64_t>(opt.overrun_us * 1e3), opt.overrun_cycles);
+    }
+    if (!opt.quiet && hyq::servo::MonotonicNs() >= next_progress) {
+      next_progress += 1'000'000'000;
+      std::fprintf(stderr, "hyq-servod: %s, cycle %llu\n", hyq::servo::ToString(mode),
+                   static_cast<unsigned long long>(loop->published_cycles()));
+    }
+  }
+  servo.join();
+  const double wall_s = 1e-9 * static_cast<double>(hyq::servo::MonotonicNs() - wall0);
+
+  const nlohmann::json summary = Summary(*loop, config, wall_s);
+  if (!opt.summary.empty()) std::ofstream(opt.summary) << summary.dump(2) << "\n";
+  if (!opt.quiet) std::fprintf(stderr, "hyq-servod: summary\n%s\n", summary.dump(2).c_str());
+  return stopped_in_fault ? 3 : 0;
+}
