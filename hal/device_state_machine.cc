@@ -61,6 +61,14 @@ DeviceState InitTimeout(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
   return DeviceState::kInit;
 }
 
+// Going down on request (e.g. the daemon's controlled stop): below SAFE-OP the device must stop
+// its PDOs, so it is told with NMT enter-pre-operational (or reset for INIT).
+DeviceState LeaveDownwards(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
+  SendNmt(d, d.target == DeviceState::kInit ? NmtCommand::kResetCommunication
+                                            : NmtCommand::kEnterPreOperational, ctx);
+  return d.target;
+}
+
 // PRE-OP: configuration; NMT start when SAFE-OP is wanted, SAFE-OP at the first valid inputs.
 DeviceState PreOpEnter(DeviceRuntime& d, StateMachineContext&) noexcept {
   d.start_sent = false;
@@ -125,7 +133,7 @@ DeviceState SafeOpFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineCont
   return DeviceState::kSafeOp;
 }
 DeviceState SafeOpCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
-  if (d.target < DeviceState::kSafeOp) return d.target;
+  if (d.target < DeviceState::kSafeOp) return LeaveDownwards(d, ctx);
   if (HeartbeatLost(d, ctx)) return Fault(d, DeviceError::kHeartbeatLost, DeviceState::kInit);
   if (d.consecutive_missed > ctx.timing->max_missed_cycles)
     return Fault(d, DeviceError::kInputsLost, DeviceState::kPreOp);
@@ -172,6 +180,7 @@ DeviceState OpFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineContext&
   return DeviceState::kOp;
 }
 DeviceState OpCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
+  if (d.target < DeviceState::kSafeOp) return LeaveDownwards(d, ctx);
   if (d.target < DeviceState::kOp) return d.target;
   if (HeartbeatLost(d, ctx)) return Fault(d, DeviceError::kHeartbeatLost, DeviceState::kInit);
   if (d.consecutive_missed > ctx.timing->max_missed_cycles)

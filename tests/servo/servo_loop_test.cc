@@ -1,0 +1,269 @@
+// The servo loop against the HAL's device emulator (in-process buses, no physics): start-up,
+// torques reaching the boards, every fault reaching the safe state within 2 cycles with an
+// event, commands, the controlled stop, and no heap in full cycles.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <string>
+
+#include "servo/servo_loop.h"
+#include "tests/servo/servo_rig.h"
+#include "tests/support/no_heap_guard.h"
+
+namespace hyq::servo {
+namespace {
+
+using testing::ServoRig;
+
+bool Safe(ServoMode m) {
+  return m == ServoMode::kDamping || m == ServoMode::kFault || m == ServoMode::kStopped;
+}
+
+ServoConfig ActiveConfig() {
+  ServoConfig c = testing::DefaultServoConfig();
+  c.auto_enable = true;
+  return c;
+}
+
+TEST(ServoLoop, StartsInStandbyAndAutoEnableMakesItActive) {
+  ServoRig rig(testing::DefaultServoConfig());
+  rig.BringUpAndStart();
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kStandby);
+  rig.Steps(20);
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kStandby) << "no enable without a command";
+  for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->torque_setpoint_Nm(j), 0.0) << j;
+  rig.sink.commands.push_back({.kind = ServoCommand::Kind::kEnable});
+  rig.Step();
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kActive);
+  ASSERT_TRUE(rig.sink.HasEvent(EventReason::kBringUpComplete));
+  ASSERT_TRUE(rig.sink.HasEvent(EventReason::kEnableCommand));
+}
+
+TEST(ServoLoop, ControllerTorquesReachTheBoards) {
+  ServoRig rig(ActiveConfig());
+  rig.BringUpAndStart();
+  rig.Steps(50);
+  ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
+  // standing still: the two-stage ID holds the robot up, so the knees and hips carry torque
+  double sum = 0.0;
+  for (int j = 0; j < 12; ++j) {
+    const double sent = rig.sink.last.tau_command_Nm[static_cast<std::size_t>(j)];
+    // the board applies what the loop commanded one cycle earlier, to the mN·m
+    EXPECT_TRUE(std::isfinite(sent));
+    sum += std::abs(rig.emu->torque_setpoint_Nm(j));
+  }
+  EXPECT_GT(sum, 50.0) << "the boards received the gravity-compensating torques";
+  for (int leg = 0; leg < 4; ++leg)
+    EXPECT_GT(std::abs(rig.emu->torque_setpoint_Nm(3 * leg + 2)), 5.0) << "knee of leg " << leg;
+  // the last command the boards applied equals the loop's command of the previous cycle
+  const auto before = rig.sink.last.tau_command_Nm;
+  rig.Step();
+  for (int j = 0; j < 12; ++j)
+    EXPECT_NEAR(rig.emu->torque_setpoint_Nm(j), before[static_cast<std::size_t>(j)], 1e-3) << j;
+  EXPECT_EQ(rig.loop->stats().deadline_misses, 0u);
+  EXPECT_GT(rig.sink.snapshots, 50u);
+}
+
+// Injects a fault into an ACTIVE loop; returns how many cycles after the fault's inputs first
+// reached the loop it took to be in a safe mode (−1: never within 10), and checks the event.
+struct FaultCase {
+  std::string name;
+  EventReason reason;
+  std::function<void(ServoRig&)> inject;
+  int transport_cycles;  // cycles before the fault is in the inputs the loop reads (bus latency)
+  std::vector<int> cut_off = {};  // joints whose boards the loop cannot reach (keep their set-point)
+};
+
+class ServoFault : public ::testing::TestWithParam<FaultCase> {};
+
+TEST_P(ServoFault, ReachesTheSafeStateWithinTwoCycles) {
+  const FaultCase& fc = GetParam();
+  ServoConfig cfg = ActiveConfig();
+  cfg.deadline.max_consecutive_misses = 1;
+  ServoRig rig(cfg);
+  rig.BringUpAndStart();
+  rig.Steps(30);
+  ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
+  fc.inject(rig);
+  rig.Steps(fc.transport_cycles);
+  int cycles = -1;
+  for (int k = 1; k <= 10; ++k) {
+    rig.Step();
+    if (Safe(rig.loop->mode())) {
+      cycles = k;
+      break;
+    }
+  }
+  EXPECT_GE(cycles, 1) << fc.name << ": never reached a safe state";
+  EXPECT_LE(cycles, 2) << fc.name;
+  ASSERT_TRUE(rig.sink.HasEvent(fc.reason)) << fc.name << ": no event " << ToString(fc.reason);
+  for (const auto& e : rig.sink.events)
+    if (e.reason == fc.reason) {
+      EXPECT_NE(e.detail[0], '\0') << "the event says what happened";
+      break;
+    }
+  // the boards get the damping torque (0 at rest) from the next write on
+  rig.Step();
+  for (int j = 0; j < 12; ++j) {
+    if (std::find(fc.cut_off.begin(), fc.cut_off.end(), j) == fc.cut_off.end()) {
+      EXPECT_NEAR(rig.emu->torque_setpoint_Nm(j), 0.0, 1e-3) << j;
+    }
+  }
+  // and the loop keeps running to FAULT without a crash
+  rig.Steps(1200);
+  EXPECT_TRUE(rig.loop->mode() == ServoMode::kFault || rig.loop->mode() == ServoMode::kStopped)
+      << ToString(rig.loop->mode());
+}
+
+std::vector<FaultCase> Cases() {
+  return {
+      {"device_silent", EventReason::kInputMissing,
+       [](ServoRig& r) { r.emu->joint_faults(4).silent = true; }, 1, {4}},
+      {"corrupt_frames", EventReason::kCorruptFrames,
+       [](ServoRig& r) { r.emu->joint_faults(7).corrupt_next = 3; }, 1},
+      {"out_of_range_position", EventReason::kOutOfRange,
+       [](ServoRig& r) { r.emu->SetJointState(2, 0.5, 0.0, 0.0); }, 1},
+      {"implausible_load_cell", EventReason::kOutOfRange,
+       [](ServoRig& r) { r.emu->SetJointSensor(5, r.model.q_standing(5), 0.0, 1e6); }, 1},
+      {"bus_off_master_side", EventReason::kBusOff,
+       [](ServoRig& r) { r.wires[2]->SetBusOff(true); }, 0, {6, 7, 8}},
+      {"bus_off_device_side", EventReason::kInputMissing,
+       [](ServoRig& r) { r.emu->SetBusOff(3, true); }, 1, {9, 10, 11}},
+      {"device_emcy_fault", EventReason::kDeviceFault,
+       [](ServoRig& r) { r.emu->SendJointEmcy(9, 0x2310); }, 1},
+      {"deadline_overrun", EventReason::kDeadlineMiss,
+       [](ServoRig& r) { r.loop->InjectOverrun(2'000'000, 3); }, 0},
+      {"bad_command", EventReason::kCommandRejected,
+       [](ServoRig& r) { r.sink.commands.push_back({.kind = ServoCommand::Kind::kRejected}); }, 0},
+      {"stop_request", EventReason::kStopRequest, [](ServoRig& r) { r.loop->RequestStop(); }, 0},
+  };
+}
+
+INSTANTIATE_TEST_SUITE_P(Faults, ServoFault, ::testing::ValuesIn(Cases()),
+                         [](const auto& p) { return p.param.name; });
+
+TEST(ServoLoop, NonFiniteInputIsAFault) {
+  // a NaN cannot travel in the boards' integer counts; the check sees the process image
+  ServoRig rig(ActiveConfig());
+  rig.BringUpAndStart();
+  rig.Steps(5);
+  InputChecker checker(rig.config.safety, rig.config.hal);
+  checker.Reset(*rig.hal);
+  EXPECT_FALSE(checker.Check(*rig.hal, hal::HalStatus::kOk, true));
+  rig.hal->image().joints[4].torque_Nm = std::numeric_limits<double>::quiet_NaN();
+  const Fault f = checker.Check(*rig.hal, hal::HalStatus::kOk, true);
+  EXPECT_EQ(f.reason, EventReason::kNonFiniteInput);
+  EXPECT_EQ(f.joint, 4);
+  EXPECT_NE(std::string(f.detail.data()).find("rf_hfe"), std::string::npos) << f.detail.data();
+  rig.hal->image().joints[4].torque_Nm = 0.0;
+  rig.hal->image().imu.accel_m_s2[1] = std::numeric_limits<double>::infinity();
+  EXPECT_EQ(checker.Check(*rig.hal, hal::HalStatus::kOk, true).reason, EventReason::kNonFiniteInput);
+}
+
+TEST(ServoLoop, InputJumpIsAFault) {
+  ServoRig rig(ActiveConfig());
+  rig.BringUpAndStart();
+  rig.Steps(10);
+  rig.emu->SetJointState(1, rig.model.q_standing(1) + 0.3, 0.0, 0.0);
+  rig.Steps(3);
+  EXPECT_TRUE(Safe(rig.loop->mode()));
+  EXPECT_TRUE(rig.sink.HasEvent(EventReason::kInputJump));
+}
+
+TEST(ServoLoop, AcknowledgeBringsFaultBackToStandbyOnlyWhenClean) {
+  ServoRig rig(ActiveConfig());
+  rig.BringUpAndStart();
+  rig.Steps(10);
+  rig.emu->joint_faults(0).silent = true;
+  rig.Steps(1100);  // damping, then FAULT
+  ASSERT_EQ(rig.loop->mode(), ServoMode::kFault);
+  // still silent: the acknowledgement cannot succeed
+  rig.sink.commands.push_back({.kind = ServoCommand::Kind::kAcknowledge});
+  rig.Steps(1100);
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kFault);
+  // the board answers again: acknowledge → devices back to OP → STANDBY, not ACTIVE
+  rig.emu->joint_faults(0).silent = false;
+  rig.sink.commands.push_back({.kind = ServoCommand::Kind::kAcknowledge});
+  for (int i = 0; i < 2000 && rig.loop->mode() != ServoMode::kStandby; ++i) rig.Step();
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kStandby);
+  EXPECT_TRUE(rig.sink.HasEvent(EventReason::kAcknowledge));
+  rig.Steps(50);
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kStandby) << "auto_enable only enables once";
+}
+
+TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
+  ServoRig rig(testing::DefaultServoConfig());
+  rig.BringUpAndStart();
+  rig.Steps(3);
+  ServoCommand mu{.kind = ServoCommand::Kind::kSetMu};
+  mu.mu = {0.1, 0.2, 0.3, 0.4};
+  rig.sink.commands.push_back(mu);
+  rig.sink.commands.push_back({.kind = ServoCommand::Kind::kSetController,
+                               .controller = static_cast<std::uint8_t>(ControllerKind::kPid)});
+  rig.Steps(2);
+  EXPECT_DOUBLE_EQ(rig.sink.last.mu[2], 0.3);
+  EXPECT_EQ(rig.loop->controller().kind(), ControllerKind::kPid);
+  rig.sink.commands.push_back({.kind = ServoCommand::Kind::kEnable});
+  rig.Steps(2);
+  ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
+  // switching the controller while ACTIVE is refused (with an event), the mode stays
+  rig.sink.events.clear();
+  rig.sink.commands.push_back({.kind = ServoCommand::Kind::kSetController,
+                               .controller = static_cast<std::uint8_t>(ControllerKind::kTwoStageId)});
+  rig.Steps(2);
+  EXPECT_EQ(rig.loop->controller().kind(), ControllerKind::kPid);
+  EXPECT_TRUE(rig.sink.HasEvent(EventReason::kCommandRejected));
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kActive);
+  // disable → STANDBY → zero torque at the boards
+  rig.sink.commands.push_back({.kind = ServoCommand::Kind::kDisable});
+  rig.Steps(3);
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kStandby);
+  for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->torque_setpoint_Nm(j), 0.0);
+}
+
+TEST(ServoLoop, ControlledStopEndsWithDevicesInPreOp) {
+  ServoRig rig(ActiveConfig());
+  rig.BringUpAndStart();
+  rig.Steps(20);
+  rig.loop->RequestStop();
+  int n = 0;
+  while (!rig.loop->finished() && n < 5000) {
+    rig.Step();
+    ++n;
+  }
+  ASSERT_TRUE(rig.loop->finished());
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kStopped);
+  // damping first (1 s), then PRE-OP quickly
+  EXPECT_GE(n, 1000);
+  EXPECT_LT(n, 1000 + 600);
+  for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->nmt_state(j), hal::NmtState::kPreOperational) << j;
+}
+
+TEST(ServoLoop, FullCyclesDoNotTouchTheHeap) {
+  HYQ_REQUIRE_HEAP_HOOKS();
+  for (const auto kind : {ControllerKind::kTwoStageId, ControllerKind::kNoSlipId, ControllerKind::kPid}) {
+    ServoConfig cfg = ActiveConfig();
+    cfg.controller.kind = kind;
+    cfg.reference = Reference::Kind::kTrot;
+    ServoRig rig(cfg);
+    rig.BringUpAndStart();
+    rig.Steps(5);  // first touches (lazy static initialisation in libraries) outside the guard
+    {
+      testing::NoHeapGuard guard;
+      rig.Steps(1500);  // stand, then trot steps: stance changes, the QPs' sizes change
+      ASSERT_EQ(rig.loop->mode(), ServoMode::kActive) << ToString(kind);
+      // a fault path too: damping, events, the state requests
+      rig.emu->joint_faults(3).silent = true;
+      rig.Steps(20);
+      rig.loop->RequestStop();
+      rig.Steps(20);
+      EXPECT_EQ(guard.allocations(), 0u) << ToString(kind);
+    }
+    EXPECT_GT(rig.loop->stats().active_cycles, 1000u);
+  }
+}
+
+}  // namespace
+}  // namespace hyq::servo
