@@ -391,6 +391,7 @@ int main(int argc, char** argv) {
                    exe.c_str());
       return 1;
     }
+    std::fflush(stdout);
     // Debian's python3 (with python3-matplotlib), not whatever python3 is first on PATH
     const std::string cmd = "/usr/bin/python3 '" + script.string() + "' '" + out_dir.string() + "'";
     if (std::system(cmd.c_str()) != 0) {
