@@ -1,0 +1,586 @@
+// servo::Telemetry: what lcm-logger records equals what was pushed; a stalled publisher never
+// stalls Push; the command channel validates and rate-limits; Push/PushEvent/PopCommand never
+// touch the heap. The udpm tests run in their own network namespace (tests/drivers/in_netns.sh).
+#include "servo/telemetry.h"
+
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "hyq_lcm/lcmt_hyq_command.hpp"
+#include "hyq_lcm/lcmt_hyq_contact_state.hpp"
+#include "hyq_lcm/lcmt_hyq_event.hpp"
+#include "hyq_lcm/lcmt_hyq_health.hpp"
+#include "hyq_lcm/lcmt_hyq_joint_state.hpp"
+#include "hyq_lcm/lcmt_hyq_joint_torque.hpp"
+#include "hyq_lcm/lcmt_hyq_servo_timing.hpp"
+#include "tests/support/no_heap_guard.h"
+
+extern char** environ;
+
+namespace hyq::servo {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+
+// each test its own group/port too, on top of its own namespace
+constexpr const char* kUrl = "udpm://239.255.76.67:7667?ttl=0";
+
+#define HYQ_REQUIRE_NETNS()                                                                  \
+  do {                                                                                       \
+    if (std::getenv("HYQ_NETNS") == nullptr)                                                 \
+      GTEST_SKIP() << "multicast LCM tests run only inside tests/drivers/in_netns.sh (needs " \
+                      "unshare -n); ctest runs them there";                                  \
+  } while (false)
+
+// A snapshot whose every field is a function of the cycle, so a decoded message can be checked.
+TelemetrySnapshot MakeSnapshot(std::uint64_t cycle) {
+  TelemetrySnapshot s;
+  const double c = static_cast<double>(cycle);
+  s.cycle = cycle;
+  s.time_ns = 1'000'000'000 + static_cast<std::int64_t>(cycle) * 1'000'000;
+  s.reference_time_s = c * 1e-3;
+  s.mode = ServoMode::kActive;
+  s.controller = 3;
+  for (int j = 0; j < kTelemetryJoints; ++j) {
+    s.q_rad[j] = 0.01 * j + 1e-4 * c;
+    s.qd_rad_s[j] = -0.5 * j + c;
+    s.tau_measured_Nm[j] = 10.0 * j - c;
+    s.q_ref_rad[j] = 0.01 * j + 2e-4 * c;
+    s.qd_ref_rad_s[j] = 0.25 * j;
+    s.tau_command_Nm[j] = 3.0 * j + 0.5 * c;
+    s.input_status[j] = static_cast<std::uint8_t>((cycle + j) % 5);
+  }
+  for (int f = 0; f < kTelemetryFeet; ++f) {
+    s.stance_reference[f] = (cycle + f) % 2;
+    s.stance_estimated[f] = 1;
+    s.mu[f] = 0.1 * (f + 1);
+    s.contact_force_N[f] = {c, -c, 200.0 + f};
+  }
+  s.stage1_iterations = static_cast<std::int32_t>(cycle % 7);
+  s.stage2_solve_us = 12.5 + c;
+  s.timing.total_ns = 100'000 + static_cast<std::int64_t>(cycle) * 10;
+  s.timing.wakeup_latency_ns = 5'000 + static_cast<std::int64_t>(cycle % 13) * 100;
+  s.deadline_misses = cycle / 50;
+  s.num_buses = 4;
+  s.buses[2].rx_frames = cycle * 13;
+  s.num_devices = 13;
+  s.device_state[12] = 3;
+  return s;
+}
+
+SafetyEvent MakeEvent(std::uint64_t cycle, EventReason reason, const char* detail) {
+  SafetyEvent e;
+  e.cycle = cycle;
+  e.time_ns = 1'000'000'000 + static_cast<std::int64_t>(cycle) * 1'000'000;
+  e.from = ServoMode::kStandby;
+  e.to = ServoMode::kActive;
+  e.reason = reason;
+  e.joint = 4;
+  std::snprintf(e.detail.data(), e.detail.size(), "%s", detail);
+  return e;
+}
+
+template <class M>
+M Decode(const void* data, std::size_t size) {
+  M m;
+  EXPECT_EQ(m.decode(data, 0, static_cast<int>(size)), static_cast<int>(size));
+  return m;
+}
+
+// ---------------------------------------------------------------------------------------------
+// (b) the real lcm-logger records what Telemetry publishes; hyq-lcm-export turns it into CSVs
+
+class LcmLogger {
+ public:
+  LcmLogger(const std::string& url, const std::string& path) {
+    const std::string url_arg = "--lcm-url=" + url;
+    std::vector<const char*> argv = {"lcm-logger", "-f", "-q", "--flush-interval=20",
+                                     "--channel=HYQ_.*", url_arg.c_str(), path.c_str(), nullptr};
+    const int rc = posix_spawnp(&pid_, "lcm-logger", nullptr, nullptr,
+                                const_cast<char* const*>(argv.data()), environ);
+    if (rc != 0) pid_ = -1;
+  }
+  ~LcmLogger() { Stop(); }
+  bool running() const { return pid_ > 0; }
+  int Stop() {
+    if (pid_ <= 0) return -1;
+    kill(pid_, SIGINT);
+    int status = 0;
+    waitpid(pid_, &status, 0);
+    pid_ = -1;
+    return status;
+  }
+
+ private:
+  pid_t pid_ = -1;
+};
+
+TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
+  HYQ_REQUIRE_NETNS();
+  const fs::path dir = fs::temp_directory_path() / ("hyq_telemetry_log_" + std::to_string(getpid()));
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const std::string log_path = (dir / "run.lcm").string();
+
+  LcmLogger logger(kUrl, log_path);
+  ASSERT_TRUE(logger.running()) << "cannot start lcm-logger (Debian package liblcm-bin)";
+  // wait until the logger records: publish a warm-up event until the log file is non-empty
+  {
+    lcm::LCM lcm(kUrl);
+    ASSERT_TRUE(lcm.good());
+    hyq_lcm::lcmt_hyq_event warm{};
+    bool recording = false;
+    for (int i = 0; i < 200 && !recording; ++i) {
+      warm.cycle = i;
+      lcm.publish("HYQ_WARMUP", &warm);
+      std::this_thread::sleep_for(25ms);
+      std::error_code ec;
+      recording = fs::file_size(log_path, ec) > 0 && !ec;
+    }
+    ASSERT_TRUE(recording) << "lcm-logger did not record anything within 5 s";
+  }
+
+  constexpr int kCycles = 300;
+  TelemetryConfig config;
+  config.lcm_url = kUrl;
+  std::vector<std::uint64_t> event_cycles;
+  {
+    Telemetry telemetry(config);
+    telemetry.Start();
+    for (int c = 0; c < kCycles; ++c) {
+      ASSERT_TRUE(telemetry.Push(MakeSnapshot(static_cast<std::uint64_t>(c))));
+      if (c % 100 == 42) {
+        ASSERT_TRUE(telemetry.PushEvent(MakeEvent(static_cast<std::uint64_t>(c),
+                                                  EventReason::kEnableCommand, "operator enable")));
+        event_cycles.push_back(static_cast<std::uint64_t>(c));
+      }
+      std::this_thread::sleep_for(1ms);  // the servo's pace: no burst for the UDP buffers
+    }
+    telemetry.Stop();
+    const TelemetryStats st = telemetry.stats();
+    EXPECT_EQ(st.snapshots_dropped, 0u);
+    EXPECT_EQ(st.snapshots_published, static_cast<std::uint64_t>(kCycles));
+    EXPECT_EQ(st.publish_failures, 0u);
+  }
+  std::this_thread::sleep_for(300ms);  // let the logger receive and flush the last datagrams
+  logger.Stop();
+
+  // decode the log with the generated types
+  lcm::LogFile log(log_path, "r");
+  ASSERT_TRUE(log.good());
+  std::map<std::string, int> count;
+  std::vector<std::uint64_t> events_seen;
+  hyq_lcm::lcmt_hyq_health last_health{};
+  while (const lcm::LogEvent* ev = log.readNextEvent()) {
+    ++count[ev->channel];
+    if (ev->channel == "HYQ_JOINT_STATE") {
+      const auto m = Decode<hyq_lcm::lcmt_hyq_joint_state>(ev->data, static_cast<std::size_t>(ev->datalen));
+      const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
+      ASSERT_EQ(m.utime, s.time_ns / 1000);
+      EXPECT_EQ(m.mode, static_cast<int>(ServoMode::kActive));
+      EXPECT_DOUBLE_EQ(m.reference_time_s, s.reference_time_s);
+      for (int j = 0; j < kTelemetryJoints; ++j) {
+        ASSERT_EQ(m.q_rad[j], s.q_rad[j]);
+        ASSERT_EQ(m.qd_rad_s[j], s.qd_rad_s[j]);
+        ASSERT_EQ(m.tau_measured_Nm[j], s.tau_measured_Nm[j]);
+        ASSERT_EQ(m.q_ref_rad[j], s.q_ref_rad[j]);
+        ASSERT_EQ(m.qd_ref_rad_s[j], s.qd_ref_rad_s[j]);
+        ASSERT_EQ(m.input_status[j], s.input_status[j]);
+      }
+    } else if (ev->channel == "HYQ_JOINT_TORQUE") {
+      const auto m = Decode<hyq_lcm::lcmt_hyq_joint_torque>(ev->data, static_cast<std::size_t>(ev->datalen));
+      const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
+      for (int j = 0; j < kTelemetryJoints; ++j) ASSERT_EQ(m.tau_command_Nm[j], s.tau_command_Nm[j]);
+      EXPECT_EQ(m.controller, 3);
+    } else if (ev->channel == "HYQ_CONTACT") {
+      const auto m = Decode<hyq_lcm::lcmt_hyq_contact_state>(ev->data, static_cast<std::size_t>(ev->datalen));
+      const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
+      for (int f = 0; f < kTelemetryFeet; ++f) {
+        ASSERT_EQ(m.stance_reference[f] != 0, s.stance_reference[f] != 0);
+        ASSERT_EQ(m.mu[f], s.mu[f]);
+        for (int k = 0; k < 3; ++k) ASSERT_EQ(m.contact_force_N[f][k], s.contact_force_N[f][k]);
+      }
+      EXPECT_EQ(m.stage1_iterations, s.stage1_iterations);
+      EXPECT_EQ(m.stage2_solve_us, s.stage2_solve_us);
+    } else if (ev->channel == "HYQ_TIMING") {
+      const auto m = Decode<hyq_lcm::lcmt_hyq_servo_timing>(ev->data, static_cast<std::size_t>(ev->datalen));
+      const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
+      EXPECT_EQ(m.total_ns, s.timing.total_ns);
+      EXPECT_EQ(m.wakeup_latency_ns, s.timing.wakeup_latency_ns);
+      EXPECT_EQ(m.deadline_misses, static_cast<std::int64_t>(s.deadline_misses));
+    } else if (ev->channel == "HYQ_HEALTH") {
+      last_health = Decode<hyq_lcm::lcmt_hyq_health>(ev->data, static_cast<std::size_t>(ev->datalen));
+      EXPECT_EQ(last_health.buses[2].rx_frames, last_health.cycle * 13);
+      EXPECT_EQ(last_health.num_devices, 13);
+      EXPECT_EQ(last_health.device_state[12], 3);
+    } else if (ev->channel == "HYQ_EVENT") {
+      const auto m = Decode<hyq_lcm::lcmt_hyq_event>(ev->data, static_cast<std::size_t>(ev->datalen));
+      events_seen.push_back(static_cast<std::uint64_t>(m.cycle));
+      EXPECT_EQ(m.reason, "enable_command");
+      EXPECT_EQ(m.from_name, "standby");
+      EXPECT_EQ(m.to_name, "active");
+      EXPECT_EQ(m.detail, "operator enable");
+      EXPECT_EQ(m.joint, 4);
+    }
+  }
+  EXPECT_EQ(count["HYQ_JOINT_STATE"], kCycles);
+  EXPECT_EQ(count["HYQ_JOINT_TORQUE"], kCycles);
+  EXPECT_EQ(count["HYQ_BASE_STATE"], kCycles);
+  EXPECT_EQ(count["HYQ_CONTACT"], kCycles);
+  EXPECT_EQ(count["HYQ_TIMING"], kCycles);
+  EXPECT_EQ(count["HYQ_HEALTH"], kCycles / 100 + 1);  // cycles 0, 100, 200 and the final one
+  EXPECT_EQ(events_seen, event_cycles);
+  EXPECT_EQ(last_health.cycle, kCycles - 1);
+  EXPECT_EQ(last_health.snapshots_published, kCycles);
+
+  // hyq-lcm-export: one CSV per channel, header + one row per message
+  const fs::path csv_dir = dir / "csv";
+  const std::string cmd = std::string(HYQ_LCM_EXPORT_TOOL) + " --quiet " + log_path + " " +
+                          csv_dir.string() + " > " + (dir / "export.txt").string();
+  ASSERT_EQ(std::system(cmd.c_str()), 0) << cmd;
+  for (const auto& [channel, n] : count) {
+    std::ifstream in(csv_dir / (channel + ".csv"));
+    ASSERT_TRUE(in.good()) << channel;
+    std::string header, line;
+    std::getline(in, header);
+    int rows = 0;
+    while (std::getline(in, line)) ++rows;
+    EXPECT_EQ(rows, n) << channel;
+    if (channel == "HYQ_JOINT_STATE") {
+      EXPECT_NE(header.find("q_rad.lf_haa (rad)"), std::string::npos) << header;
+      EXPECT_NE(header.find("tau_measured_Nm.rh_kfe (N.m)"), std::string::npos) << header;
+    }
+    if (channel == "HYQ_TIMING") {
+      EXPECT_NE(header.find("total_ns (ns)"), std::string::npos) << header;
+    }
+  }
+
+  // an undecodable message makes the export fail unless allowed
+  {
+    lcm::LogFile bad((dir / "bad.lcm").string(), "w");
+    lcm::LogEvent ev{};
+    ev.channel = "HYQ_GARBAGE";
+    char junk[16] = "not a message";
+    ev.data = junk;
+    ev.datalen = sizeof junk;
+    ev.timestamp = 1;
+    ASSERT_EQ(bad.writeEvent(&ev), 0);
+  }
+  const std::string bad_cmd = std::string(HYQ_LCM_EXPORT_TOOL) + " --quiet " +
+                              (dir / "bad.lcm").string() + " " + (dir / "bad").string() +
+                              " > /dev/null 2>&1";
+  EXPECT_NE(std::system(bad_cmd.c_str()), 0);
+  const std::string allow_cmd = std::string(HYQ_LCM_EXPORT_TOOL) + " --allow-undecodable --quiet " +
+                                (dir / "bad.lcm").string() + " " + (dir / "bad").string() +
+                                " > /dev/null 2>&1";
+  EXPECT_EQ(std::system(allow_cmd.c_str()), 0);
+  if (std::getenv("HYQ_KEEP_TEST_OUTPUT") != nullptr) {
+    std::printf("kept %s\n", dir.c_str());
+  } else {
+    fs::remove_all(dir);
+  }
+}
+
+// ---------------------------------------------------------------------------------------------
+// (c) a stalled publisher: Push keeps its timing, drops are counted and published afterwards
+
+TEST(TelemetryStall, PushNeverBlocksAndDropsArePublished) {
+  std::atomic<bool> stalled{true};
+  std::atomic<int> publish_calls{0};
+  std::mutex mu;
+  std::vector<hyq_lcm::lcmt_hyq_health> health;
+  int events_published = 0;
+  Telemetry::PublishFn publish = [&](const std::string& channel, const void* data,
+                                     std::size_t size) {
+    publish_calls.fetch_add(1);
+    while (stalled.load()) std::this_thread::sleep_for(1ms);  // the stuck network
+    std::lock_guard<std::mutex> lock(mu);
+    if (channel == "HYQ_HEALTH") health.push_back(Decode<hyq_lcm::lcmt_hyq_health>(data, size));
+    if (channel == "HYQ_EVENT") ++events_published;
+    return true;
+  };
+  TelemetryConfig config;
+  config.lcm_url = "memq://";
+  config.snapshot_queue_capacity = 64;
+  config.event_queue_capacity = 32;
+  Telemetry telemetry(config, {}, publish);
+  telemetry.Start();
+
+  constexpr int kPushes = 2000;
+  std::vector<double> push_us;
+  push_us.reserve(kPushes);
+  int accepted = 0, events_accepted = 0;
+  TelemetrySnapshot s = MakeSnapshot(0);
+  for (int c = 0; c < kPushes; ++c) {
+    s.cycle = static_cast<std::uint64_t>(c + 1);  // cycle 0 would be a health cycle: start at 1
+    const auto t0 = std::chrono::steady_clock::now();
+    accepted += telemetry.Push(s) ? 1 : 0;
+    const auto t1 = std::chrono::steady_clock::now();
+    push_us.push_back(std::chrono::duration<double, std::micro>(t1 - t0).count());
+    if (c % 40 == 0)
+      events_accepted += telemetry.PushEvent(MakeEvent(s.cycle, EventReason::kDeadlineMiss, "x")) ? 1 : 0;
+    if (c % 10 == 0) std::this_thread::sleep_for(100us);
+  }
+  // the publisher is still stuck in its first call: everything above happened while it stalled
+  EXPECT_EQ(publish_calls.load(), 1);
+  const TelemetryStats during = telemetry.stats();
+  EXPECT_EQ(during.snapshots_dropped, static_cast<std::uint64_t>(kPushes - accepted));
+  EXPECT_GE(during.snapshots_dropped, static_cast<std::uint64_t>(kPushes - 65));
+  EXPECT_EQ(during.events_dropped, static_cast<std::uint64_t>(kPushes / 40 - events_accepted));
+  EXPECT_GT(during.events_dropped, 0u);
+
+  std::sort(push_us.begin(), push_us.end());
+  const double median = push_us[push_us.size() / 2];
+  const double p99 = push_us[push_us.size() * 99 / 100];
+  const double max = push_us.back();
+  std::printf("Push while the publisher is stalled: median %.2f us, p99 %.2f us, max %.2f us "
+              "(%d accepted, %llu dropped)\n",
+              median, p99, max, accepted,
+              static_cast<unsigned long long>(during.snapshots_dropped));
+  // Push is a bounded copy into the ring; only preemption of this thread can make one slow.
+  // The proof that it never waits for the publisher is that all 2000 returned while it was
+  // stuck; the bounds below only catch a regression to something that waits.
+  EXPECT_LT(p99, 50.0);
+  EXPECT_LT(max, 20'000.0);
+
+  stalled.store(false);
+  telemetry.Stop();
+  const TelemetryStats after = telemetry.stats();
+  EXPECT_EQ(after.snapshots_published, static_cast<std::uint64_t>(accepted));
+  EXPECT_EQ(after.events_published, static_cast<std::uint64_t>(events_accepted));
+  std::lock_guard<std::mutex> lock(mu);
+  EXPECT_EQ(events_published, events_accepted);
+  ASSERT_FALSE(health.empty()) << "Stop publishes a final health message";
+  EXPECT_EQ(health.back().snapshots_dropped, static_cast<std::int64_t>(during.snapshots_dropped));
+  EXPECT_EQ(health.back().events_dropped, static_cast<std::int64_t>(during.events_dropped));
+  EXPECT_EQ(health.back().snapshots_published, accepted);
+}
+
+// ---------------------------------------------------------------------------------------------
+// (d) the command channel
+
+class CommandChannel : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    if (std::getenv("HYQ_NETNS") == nullptr) GTEST_SKIP() << "needs in_netns.sh (multicast)";
+    sender_ = std::make_unique<lcm::LCM>(kUrl);
+    ASSERT_TRUE(sender_->good());
+    sender_->subscribe("HYQ_EVENT", &CommandChannel::OnEvent, this);
+  }
+  void OnEvent(const lcm::ReceiveBuffer*, const std::string&, const hyq_lcm::lcmt_hyq_event* e) {
+    events_.push_back(*e);
+  }
+  void Send(const hyq_lcm::lcmt_hyq_command& c, const char* channel = "HYQ_COMMAND") {
+    ASSERT_EQ(sender_->publish(channel, &c), 0);
+  }
+  // the next rejection event (or an empty one after 3 s)
+  hyq_lcm::lcmt_hyq_event NextRejection() {
+    const auto deadline = std::chrono::steady_clock::now() + 3s;
+    while (std::chrono::steady_clock::now() < deadline) {
+      for (std::size_t i = 0; i < events_.size(); ++i) {
+        if (events_[i].reason == "command_rejected") {
+          auto e = events_[i];
+          events_.erase(events_.begin() + static_cast<std::ptrdiff_t>(i));
+          return e;
+        }
+      }
+      sender_->handleTimeout(20);
+    }
+    return {};
+  }
+  static bool PopWithin(Telemetry* t, ServoCommand* out, std::chrono::milliseconds timeout) {
+    const auto deadline = std::chrono::steady_clock::now() + timeout;
+    while (std::chrono::steady_clock::now() < deadline) {
+      if (t->PopCommand(out)) return true;
+      std::this_thread::sleep_for(1ms);
+    }
+    return false;
+  }
+  static hyq_lcm::lcmt_hyq_command Command(std::int8_t kind, std::int64_t seq) {
+    hyq_lcm::lcmt_hyq_command c{};
+    c.kind = kind;
+    c.sequence = seq;
+    c.kp_scale = c.kd_scale = 1.0;
+    return c;
+  }
+  std::unique_ptr<lcm::LCM> sender_;
+  std::vector<hyq_lcm::lcmt_hyq_event> events_;
+};
+
+using K = hyq_lcm::lcmt_hyq_command;
+
+TEST_F(CommandChannel, ValidatesAndRateLimits) {
+  TelemetryConfig config;
+  config.lcm_url = kUrl;
+  CommandChannelConfig commands;
+  commands.enabled = true;
+  commands.max_rate_hz = 4.0;  // accepted commands at least 250 ms apart
+  commands.allowed_controllers = {"two_stage", "pid"};
+  Telemetry telemetry(config, commands);
+  ASSERT_TRUE(telemetry.command_subscribed());
+  telemetry.Start();
+
+  // a valid friction command arrives as a ServoCommand
+  auto mu = Command(K::KIND_SET_MU, 1);
+  mu.num_feet = 4;
+  mu.mu = {0.1, 0.2, 0.3, 0.4};
+  Send(mu);
+  ServoCommand got;
+  ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
+  EXPECT_EQ(got.kind, ServoCommand::Kind::kSetMu);
+  EXPECT_EQ(got.sequence, 1u);
+  EXPECT_EQ(got.mu, (std::array<double, 4>{0.1, 0.2, 0.3, 0.4}));
+
+  // NaN friction: refused, the event names the field, the range and the value
+  mu.sequence = 2;
+  mu.mu[1] = std::nan("");
+  Send(mu);
+  auto e = NextRejection();
+  EXPECT_EQ(e.reason_code, static_cast<int>(EventReason::kCommandRejected));
+  EXPECT_NE(e.detail.find("seq 2: mu[1]: expected [0, 2], found nan"), std::string::npos) << e.detail;
+
+  // wrong foot count
+  mu.sequence = 3;
+  mu.num_feet = 3;
+  mu.mu = {0.5, 0.5, 0.5};
+  Send(mu);
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("mu: expected 4 feet, found 3"), std::string::npos) << e.detail;
+
+  // a known controller that is not allowed, and an unknown one
+  auto ctrl = Command(K::KIND_SET_CONTROLLER, 4);
+  ctrl.controller = "noslip";
+  Send(ctrl);
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("controller: expected one of two_stage,pid, found 'noslip'"),
+            std::string::npos) << e.detail;
+  ctrl.sequence = 5;
+  ctrl.controller = "warp_drive";
+  Send(ctrl);
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("found 'warp_drive'"), std::string::npos) << e.detail;
+
+  // gain scales out of range, unknown kind
+  auto gains = Command(K::KIND_SET_GAINS, 6);
+  gains.kd_scale = 5.0;
+  Send(gains);
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("kd_scale: expected [0.1, 2], found 5"), std::string::npos) << e.detail;
+  Send(Command(42, 7));
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("kind: expected 0..6, found 42"), std::string::npos) << e.detail;
+
+  // too fast: two valid commands back to back, the second is refused
+  std::this_thread::sleep_for(300ms);
+  ctrl.sequence = 8;
+  ctrl.controller = "pid";
+  Send(ctrl);
+  Send(Command(K::KIND_ENABLE, 9));
+  ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
+  EXPECT_EQ(got.kind, ServoCommand::Kind::kSetController);
+  EXPECT_EQ(got.controller, 0);  // ControllerKind::kPid
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("seq 9: rate: expected <= 4 Hz"), std::string::npos) << e.detail;
+  EXPECT_FALSE(telemetry.PopCommand(&got));
+
+  // after the interval, a command is accepted again
+  std::this_thread::sleep_for(300ms);
+  Send(Command(K::KIND_ENABLE, 10));
+  ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
+  EXPECT_EQ(got.kind, ServoCommand::Kind::kEnable);
+  EXPECT_EQ(got.sequence, 10u);
+
+  telemetry.Stop();
+  const TelemetryStats st = telemetry.stats();
+  EXPECT_EQ(st.commands_received, 10u);
+  EXPECT_EQ(st.commands_accepted, 3u);
+  EXPECT_EQ(st.commands_rejected, 7u);
+}
+
+TEST_F(CommandChannel, DisabledMeansNoSubscription) {
+  TelemetryConfig config;
+  config.lcm_url = kUrl;
+  Telemetry telemetry(config, CommandChannelConfig{});  // enabled = false by default
+  EXPECT_FALSE(telemetry.command_subscribed());
+  telemetry.Start();
+  Send(Command(K::KIND_ENABLE, 1));
+  ServoCommand got;
+  EXPECT_FALSE(PopWithin(&telemetry, &got, 300ms));
+  telemetry.Stop();
+  EXPECT_EQ(telemetry.stats().commands_received, 0u);
+}
+
+TEST(TelemetryConfigCheck, BadConfigurationThrowsNamingTheField) {
+  TelemetryConfig config;
+  config.lcm_url = "memq://";
+  config.snapshot_queue_capacity = 1000;
+  EXPECT_THROW(Telemetry{config}, std::invalid_argument);
+  config.snapshot_queue_capacity = 1024;
+  CommandChannelConfig commands;
+  commands.enabled = true;
+  commands.allowed_controllers = {"two_stage", "nonsense"};
+  try {
+    Telemetry t(config, commands);
+    FAIL() << "expected a throw";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("'nonsense'"), std::string::npos) << e.what();
+  }
+  config.lcm_url = "nosuchprovider://";
+  EXPECT_THROW(Telemetry{config}, std::runtime_error);
+  config.enabled = false;  // disabled: nothing is created, everything returns false
+  Telemetry off(config);
+  EXPECT_FALSE(off.Push(MakeSnapshot(1)));
+  off.Start();
+  off.Stop();
+}
+
+// ---------------------------------------------------------------------------------------------
+// (e) the servo side never touches the heap
+
+TEST(TelemetryNoHeap, PushPushEventPopCommand) {
+  HYQ_REQUIRE_HEAP_HOOKS();
+  TelemetryConfig config;
+  config.lcm_url = "memq://";
+  Telemetry telemetry(config);
+  telemetry.Start();
+  const TelemetrySnapshot s = MakeSnapshot(7);
+  const SafetyEvent e = MakeEvent(7, EventReason::kDeviceFault, "device 3 left OP");
+  ServoCommand c;
+  telemetry.Push(s);  // warm-up
+  {
+    hyq::testing::NoHeapGuard guard;
+    for (int i = 0; i < 500; ++i) {
+      telemetry.Push(s);
+      telemetry.PushEvent(e);
+      telemetry.PopCommand(&c);
+    }
+    // and when the queues are full (the drop path)
+    for (int i = 0; i < 3000; ++i) telemetry.Push(s);
+    EXPECT_EQ(guard.allocations(), 0u);
+  }
+  telemetry.Stop();
+}
+
+}  // namespace
+}  // namespace hyq::servo

@@ -1,0 +1,143 @@
+// hyq-command: sends one operator command (lcmt_hyq_command) to the servo's command channel.
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "hyq_lcm/lcmt_hyq_command.hpp"
+
+namespace {
+
+constexpr const char* kUsage = R"(usage: hyq-command [--lcm-url URL] [--channel NAME] [--sequence N] COMMAND
+
+Sends one command to the HyQ servo's command channel (lcmt_hyq_command). The servo accepts it
+only if its command channel is enabled; refusals (bad values, too fast) are published on
+HYQ_EVENT with the field, what was expected and what was found (watch them with hyq-spy).
+
+commands:
+  enable                 STANDBY -> ACTIVE
+  disable                ACTIVE -> STANDBY (zero torque)
+  damp                   -> DAMPING (controlled stop)
+  ack                    acknowledge faults: FAULT -> STANDBY once they are gone
+  mu MU_LF MU_RF MU_LH MU_RH
+                         friction per foot used by the controller (servo accepts [0, 2])
+  controller NAME        pid | noslip | stage1 | two_stage
+  gains KP_SCALE KD_SCALE
+                         multipliers of the configured feedback gains (servo accepts [0.1, 2])
+
+options:
+  --lcm-url URL          LCM URL (default udpm://239.255.76.67:7667?ttl=0)
+  --channel NAME         command channel (default HYQ_COMMAND)
+  --sequence N           sequence number echoed in the servo's events (default: time in ms)
+  -h, --help             this text
+)";
+
+[[noreturn]] void Fail(const std::string& what) {
+  std::fprintf(stderr, "hyq-command: %s\n(hyq-command --help for usage)\n", what.c_str());
+  std::exit(2);
+}
+
+double ParseNumber(const std::string& what, const char* text) {
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(text, &end);
+  if (end == text || *end != '\0' || errno == ERANGE)
+    Fail(what + ": expected a number, found '" + text + "'");
+  return v;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  std::string url = "udpm://239.255.76.67:7667?ttl=0";
+  std::string channel = "HYQ_COMMAND";
+  long long sequence = std::chrono::duration_cast<std::chrono::milliseconds>(
+                           std::chrono::system_clock::now().time_since_epoch())
+                           .count();
+  std::vector<const char*> args;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view a = argv[i];
+    const auto value = [&](const char* name) -> const char* {
+      if (i + 1 >= argc) Fail(std::string(name) + ": expected a value, found none");
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") {
+      std::fputs(kUsage, stdout);
+      return 0;
+    } else if (a == "--lcm-url") {
+      url = value("--lcm-url");
+    } else if (a.starts_with("--lcm-url=")) {
+      url = std::string(a.substr(10));
+    } else if (a == "--channel") {
+      channel = value("--channel");
+    } else if (a.starts_with("--channel=")) {
+      channel = std::string(a.substr(10));
+    } else if (a == "--sequence") {
+      sequence = static_cast<long long>(ParseNumber("--sequence", value("--sequence")));
+    } else if (a.starts_with("--") && a.size() > 2) {
+      Fail("unknown option '" + std::string(a) + "'");
+    } else {
+      args.push_back(argv[i]);
+    }
+  }
+  if (args.empty()) Fail("expected a command (enable, disable, damp, ack, mu, controller, gains)");
+
+  using K = hyq_lcm::lcmt_hyq_command;
+  K msg{};
+  msg.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                  std::chrono::system_clock::now().time_since_epoch())
+                  .count();
+  msg.sequence = sequence;
+  msg.kp_scale = msg.kd_scale = 1.0;
+  const std::string_view cmd = args[0];
+  const std::size_t nargs = args.size() - 1;
+  const auto expect_args = [&](std::size_t n, const char* what) {
+    if (nargs != n)
+      Fail(std::string(cmd) + ": expected " + what + ", found " + std::to_string(nargs) +
+           " argument(s)");
+  };
+  if (cmd == "enable" || cmd == "disable" || cmd == "damp" || cmd == "ack") {
+    expect_args(0, "no arguments");
+    msg.kind = cmd == "enable" ? K::KIND_ENABLE
+               : cmd == "disable" ? K::KIND_DISABLE
+               : cmd == "damp" ? K::KIND_DAMP
+                               : K::KIND_ACKNOWLEDGE;
+  } else if (cmd == "mu") {
+    expect_args(4, "4 friction coefficients (lf rf lh rh)");
+    msg.kind = K::KIND_SET_MU;
+    msg.num_feet = 4;
+    for (std::size_t f = 0; f < 4; ++f)
+      msg.mu.push_back(ParseNumber("mu[" + std::to_string(f) + "]", args[f + 1]));
+  } else if (cmd == "controller") {
+    expect_args(1, "a controller name (pid, noslip, stage1, two_stage)");
+    msg.kind = K::KIND_SET_CONTROLLER;
+    msg.controller = args[1];
+  } else if (cmd == "gains") {
+    expect_args(2, "KP_SCALE KD_SCALE");
+    msg.kind = K::KIND_SET_GAINS;
+    msg.kp_scale = ParseNumber("KP_SCALE", args[1]);
+    msg.kd_scale = ParseNumber("KD_SCALE", args[2]);
+  } else {
+    Fail("unknown command '" + std::string(cmd) +
+         "' (expected enable, disable, damp, ack, mu, controller or gains)");
+  }
+
+  lcm::LCM lcm(url);
+  if (!lcm.good()) {
+    std::fprintf(stderr, "hyq-command: cannot open LCM on '%s'\n", url.c_str());
+    return 1;
+  }
+  if (lcm.publish(channel, &msg) != 0) {
+    std::fprintf(stderr, "hyq-command: publishing on '%s' failed\n", channel.c_str());
+    return 1;
+  }
+  std::printf("hyq-command: sent %.*s (sequence %lld) on %s via %s\n", static_cast<int>(cmd.size()),
+              cmd.data(), static_cast<long long>(sequence), channel.c_str(), url.c_str());
+  return 0;
+}
