@@ -233,11 +233,15 @@ int Run(const Options& o) {
       truth << ',' << leg << "_fx," << leg << "_fy," << leg << "_fz," << leg << "_touching";
     truth << ",body_touching,holding\n";
   }
-  double first_step_wall = 0, last_step_wall = 0;
+  double first_step_wall = 0, last_step_wall = 0, release_wall = 0, release_t = 0;
   double next_progress = 1.0;
   robot.SetStepObserver([&](const sim::SimulatedRobot& r) {
     last_step_wall = WallS();
     if (r.counters().steps == 1) first_step_wall = last_step_wall;
+    if (release_wall == 0 && !r.holding()) {
+      release_wall = last_step_wall;
+      release_t = r.time_s();
+    }
     if (truth.is_open() && r.counters().steps % static_cast<std::uint64_t>(o.truth_every) == 0) {
       const dynamics::VectorQ q = r.plant().q();
       const dynamics::VectorV v = r.plant().v();
@@ -288,6 +292,12 @@ int Run(const Options& o) {
     s << "},\n  \"wall_s\": " << end_wall - start_wall << ",\n"
       << "  \"stepping_wall_s\": " << stepping_wall << ",\n"
       << "  \"speed\": " << speed << ",\n"
+      << "  \"released_at_s\": " << release_t << ",\n"
+      << "  \"speed_after_release\": "
+      << (last_step_wall > release_wall && release_wall > 0
+              ? (robot.time_s() - release_t) / (last_step_wall - release_wall)
+              : 0.0)
+      << ",\n"
       << "  \"lockstep_forced_steps\": " << c.lockstep_forced << ",\n"
       << "  \"realtime_overruns\": " << c.realtime_overruns << ",\n"
       << "  \"faults_injected\": " << c.faults_injected << ",\n  \"faults\": [";
