@@ -3,6 +3,7 @@
 
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -298,6 +299,17 @@ TEST(SimulatedRobot, LockStepCycleDoesNotAllocate) {
     }
     EXPECT_EQ(guard.allocations(), 0u);
   }
+}
+
+TEST(SimulatedRobot, RealTimeModeStepsAtTheCyclePeriodOnTheMonotonicClock) {
+  LoopbackRig rig;
+  std::atomic<bool> stop{false};
+  const std::int64_t t0 = MonotonicNs();
+  const std::uint64_t steps = rig.robot->RunRealTime(stop, 0.2);
+  const double wall = 1e-9 * static_cast<double>(MonotonicNs() - t0);
+  EXPECT_EQ(steps, 200u);
+  EXPECT_NEAR(wall, 0.2, 0.03) << "physics follows the wall clock";
+  EXPECT_TRUE(rig.robot->holding()) << "no master: still on its stand";
 }
 
 }  // namespace
