@@ -112,6 +112,10 @@ void Emulator::Answer(BusState& b, Device& d, std::uint8_t counter) noexcept {
     if (d.enabled) p.status |= status_bit::kEnabled;
     if (d.fault) p.status |= status_bit::kFault;
     if (d.watchdog) p.status |= status_bit::kRpdoWatchdog;
+    if (d.faults.sensor_fault) {
+      p.effort_counts = kInvalidSensorCounts;
+      p.status |= status_bit::kSensorFault;
+    }
     p.sync_counter = counter;
     p.error_register = d.fault ? 0x01 : 0x00;
     f = EncodeActuatorTpdo(d.node, p);
@@ -120,6 +124,11 @@ void Emulator::Answer(BusState& b, Device& d, std::uint8_t counter) noexcept {
     p.gyro_urad_s = d.gyro_urad_s;
     p.accel_um_s2 = d.accel_um_s2;
     p.status = status_bit::kReady;
+    if (d.faults.sensor_fault) {
+      p.gyro_urad_s.fill(kInvalidSensorCounts);
+      p.accel_um_s2.fill(kInvalidSensorCounts);
+      p.status = status_bit::kSensorFault;
+    }
     p.sync_counter = counter;
     f = EncodeImuTpdo(d.node, p);
   }

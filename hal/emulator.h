@@ -13,6 +13,7 @@
 #pragma once
 
 #include <array>
+#include <climits>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -33,7 +34,16 @@ struct DeviceFaults {
   bool silent = false;               // send nothing at all and ignore everything received
   bool no_heartbeat = false;         // TPDOs yes, heartbeats no
   bool refuse_enable = false;        // never applies set-points (never reports kEnabled)
+  /// A broken load cell / torque sensor (or IMU): the effort counts (IMU: every reading) are
+  /// kInvalidSensorCounts, outside the 24-bit ADC's range, and the status word has
+  /// status_bit::kSensorFault. (The HAL converts counts to doubles, so a board cannot send a NaN;
+  /// this is what it sends instead.) Combine with SendJointEmcy(j, emcy::kSensor) for a board
+  /// that also latches the fault.
+  bool sensor_fault = false;
 };
+
+/// The reading a board with a broken sensor reports (INT32_MIN: no 24-bit ADC produces it).
+inline constexpr std::int32_t kInvalidSensorCounts = INT32_MIN;
 
 struct EmulatorCounters {
   std::uint64_t rx_frames = 0;

@@ -56,6 +56,8 @@ class PeekingChannel : public hal::CanChannel {
     }
     return tpdos_;
   }
+  /// Frames buffered by Pump and not yet received.
+  std::size_t buffered() const noexcept { return tail_ - head_; }
   const hal::CanCounters& counters() const noexcept override { return inner_->counters(); }
   bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
   std::string_view name() const noexcept override { return inner_->name(); }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <cmath>
 #include <vector>
 
 #include "hal/loopback_bus.h"
@@ -151,6 +152,33 @@ TEST(EmulatorWithHal, RandomDropsAreCountedOneForOneOverManyCycles) {
   EXPECT_EQ(missing, dropped) << "every dropped TPDO is exactly one missing input";
   EXPECT_EQ(late + malformed, 0u);
   EXPECT_TRUE(rig.hal->AllIn(DeviceState::kOp)) << rig.hal->BringUpReport(rig.now_ns);
+}
+
+TEST(EmulatorWithHal, BrokenSensorReportsAnInvalidCountAndTheSensorFaultBit) {
+  testing::HalRig rig(DefaultHalConfig());
+  rig.BringUp();
+  const int j = 4;  // rf_hfe: a cylinder with a load cell
+  rig.emu->SetJointState(j, 0.3, 0.0, 20.0);
+  (void)rig.Step();
+  (void)rig.Step();
+  EXPECT_NEAR(rig.hal->image().joints[j].torque_Nm, 20.0, 0.05);
+  rig.emu->joint_faults(j).sensor_fault = true;
+  rig.emu->imu_faults().sensor_fault = true;
+  (void)rig.Step();
+  (void)rig.Step();
+  const JointInput& in = rig.hal->image().joints[j];
+  EXPECT_EQ(in.effort_counts, kInvalidSensorCounts);
+  EXPECT_NE(in.status_word & status_bit::kSensorFault, 0);
+  EXPECT_GT(std::abs(in.sensor_value), 5000.0) << "outside the load cell's +-5 kN";
+  EXPECT_NE(rig.hal->image().imu.status_word & status_bit::kSensorFault, 0);
+  // with the EMCY a real board sends, the HAL sees a device fault and leaves OP
+  rig.emu->SendJointEmcy(j, emcy::kSensor);
+  for (int i = 0; i < 3; ++i) (void)rig.Step();
+  EXPECT_EQ(rig.hal->image().joints[j].status, InputStatus::kDeviceFault);
+  EXPECT_EQ(rig.hal->bus(1).counters().last_emcy_code, emcy::kSensor);
+  EXPECT_NE(rig.hal->image().joints[j].device_state, DeviceState::kOp);
+  // the other joints are unaffected
+  EXPECT_EQ(rig.hal->image().joints[0].status, InputStatus::kValid);
 }
 
 }  // namespace

@@ -113,7 +113,11 @@ std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config) {
     x << "    <motor name=\"" << model.joint_names[j] << "\" joint=\"" << model.joint_names[j]
       << "\" ctrllimited=\"true\" ctrlrange=\"" << -e << ' ' << e << "\"/>\n";
   }
-  x << "  </actuator>\n</mujoco>\n";
+  x << "  </actuator>\n";
+  if (config.imu_sensor)
+    x << "  <sensor>\n    <gyro name=\"imu_gyro\" site=\"imu\"/>\n"
+      << "    <accelerometer name=\"imu_accel\" site=\"imu\"/>\n  </sensor>\n";
+  x << "</mujoco>\n";
   return x.str();
 }
 
@@ -135,6 +139,10 @@ Plant::Plant(const dynamics::Model& model, const PlantConfig& config)
     foot_pair_[f] = mj_name2id(m_, mjOBJ_PAIR, (model.feet[f].name + "_floor").c_str());
     foot_body_[f] = m_->geom_bodyid[foot_geom_[f]];
   }
+  const int gyro = mj_name2id(m_, mjOBJ_SENSOR, "imu_gyro");
+  const int accel = mj_name2id(m_, mjOBJ_SENSOR, "imu_accel");
+  if (gyro >= 0) gyro_adr_ = m_->sensor_adr[gyro];
+  if (accel >= 0) accel_adr_ = m_->sensor_adr[accel];
   Reset(model.StandingQ(), dynamics::VectorV::Zero());
 }
 
@@ -158,6 +166,26 @@ void Plant::Step(const dynamics::VectorJ& tau_Nm) {
 dynamics::VectorQ Plant::q() const { return Eigen::Map<const dynamics::VectorQ>(d_->qpos); }
 dynamics::VectorV Plant::v() const { return Eigen::Map<const dynamics::VectorV>(d_->qvel); }
 double Plant::time() const { return d_->time; }
+
+ImuReading Plant::Imu() const {
+  ImuReading r;
+  if (gyro_adr_ >= 0) r.gyro_rad_s = Eigen::Map<const Eigen::Vector3d>(d_->sensordata + gyro_adr_);
+  if (accel_adr_ >= 0)
+    r.specific_force_m_s2 = Eigen::Map<const Eigen::Vector3d>(d_->sensordata + accel_adr_);
+  return r;
+}
+
+bool Plant::BodyTouchesGround() const {
+  for (int i = 0; i < d_->ncon; ++i) {
+    const mjContact& c = d_->contact[i];
+    const int other = c.geom1 == floor_geom_ ? c.geom2 : c.geom2 == floor_geom_ ? c.geom1 : -1;
+    if (other < 0) continue;
+    bool foot = false;
+    for (int f = 0; f < dynamics::kNumFeet; ++f) foot = foot || other == foot_geom_[f];
+    if (!foot) return true;
+  }
+  return false;
+}
 
 void Plant::SetFootFriction(int foot, double mu) {
   m_->pair_friction[5 * foot_pair_[foot] + 0] = mu;

@@ -20,6 +20,16 @@ struct PlantConfig {
   double ground_mu = 1.0;
   /// Per-foot friction (lf, rf, lh, rh); negative: the ground's.
   std::array<double, 4> foot_mu{-1.0, -1.0, -1.0, -1.0};
+  /// Adds MuJoCo's gyro and accelerometer at the IMU site (model.imu) for Plant::Imu(). Costs
+  /// mj_rnePostConstraint per step (MuJoCo runs it for acceleration sensors); off by default.
+  bool imu_sensor = false;
+};
+
+/// What an ideal IMU at model.imu measures, in the IMU frame F: angular velocity w_WF_F and
+/// specific force (acceleration minus gravity) f_F.
+struct ImuReading {
+  Eigen::Vector3d gyro_rad_s = Eigen::Vector3d::Zero();
+  Eigen::Vector3d specific_force_m_s2 = Eigen::Vector3d::Zero();
 };
 
 /// Contact force on one foot from the ground, world frame, N.
@@ -52,6 +62,11 @@ class Plant {
   double time() const;
   /// Per-foot contact with the ground at the current state.
   std::array<FootContact, 4> FootContacts() const;
+  /// The IMU at the state the last Step started from (MuJoCo's sensor stage runs before the
+  /// integration; after Reset: the reset state). Zero unless PlantConfig::imu_sensor.
+  ImuReading Imu() const;
+  /// Whether any geom other than the feet (trunk, legs) touches the ground.
+  bool BodyTouchesGround() const;
   /// The foot's friction coefficient with the ground (changes take effect at the next step).
   void SetFootFriction(int foot, double mu);
   double foot_friction(int foot) const;
@@ -67,6 +82,7 @@ class Plant {
   mjData_* d_ = nullptr;
   std::array<int, 4> foot_geom_{}, foot_pair_{}, foot_body_{};
   int floor_geom_ = -1;
+  int gyro_adr_ = -1, accel_adr_ = -1;
 };
 
 /// The floor geom with the contact settings that give Coulomb friction (for other models too).

@@ -1,0 +1,316 @@
+// The simulated HyQ driven by a HAL master over in-process loopback buses, in lock-step.
+#include "tools/sim/simulated_robot.h"
+
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstring>
+#include <stdexcept>
+#include <vector>
+
+#include "hal/calibration.h"
+#include "tests/hil/hil_rig.h"
+#include "tests/support/no_heap_guard.h"
+
+namespace hyq::testing {
+namespace {
+
+using hal::DeviceState;
+using hal::InputStatus;
+
+auto Pd() {
+  return [](hal::ProcessImage& im) { StandingPd(HilModel(), im); };
+}
+
+TEST(SimulatedRobot, BringUpToOpInLockStepReleasesTheHold) {
+  LoopbackRig rig;
+  EXPECT_TRUE(rig.robot->holding());
+  rig.BringUp();
+  EXPECT_TRUE(rig.hal->AllIn(DeviceState::kOp)) << rig.hal->BringUpReport(rig.now());
+  (void)rig.Cycle(Pd());
+  EXPECT_FALSE(rig.robot->holding());
+  const auto& c = rig.robot->counters();
+  for (std::size_t b = 0; b < rig.cfg.buses.size(); ++b) EXPECT_EQ(c.syncs[b], c.steps) << b;
+  EXPECT_EQ(c.lockstep_forced, 0u);
+  EXPECT_GE(c.held_steps, 5u);
+  for (int i = 0; i < 300; ++i) EXPECT_EQ(rig.Cycle(Pd()), hal::HalStatus::kOk) << i;
+  EXPECT_FALSE(rig.robot->fell());
+  EXPECT_NEAR(rig.robot->plant().q()(2), HilModel().standing_base_height_m, 0.05);
+}
+
+TEST(SimulatedRobot, HalReadsThePlantAnglesWithinOneEncoderCount) {
+  LoopbackRig rig;
+  rig.BringUp();
+  for (int i = 0; i < 200; ++i) {
+    // the TPDOs answering this cycle's SYNC carry the state before the step the SYNC triggers
+    (void)rig.hal->Read(rig.now());
+    StandingPd(HilModel(), rig.hal->image());
+    (void)rig.hal->Write(rig.now());
+    const dynamics::VectorQ q = rig.robot->plant().q();
+    (void)rig.robot->PollLockStep();
+    (void)rig.hal->Read(rig.now());
+    (void)rig.hal->Write(rig.now());
+    (void)rig.robot->PollLockStep();
+    for (int j = 0; j < hal::kNumJoints; ++j) {
+      const double count = 2 * M_PI / rig.cfg.joints[static_cast<std::size_t>(j)].encoder.counts_per_rev;
+      ASSERT_TRUE(rig.hal->image().joints[static_cast<std::size_t>(j)].valid());
+      EXPECT_LE(std::abs(rig.hal->image().joints[static_cast<std::size_t>(j)].position_rad - q(7 + j)),
+                0.5 * count + 1e-12)
+          << "joint " << j << " cycle " << i;
+    }
+  }
+}
+
+std::vector<double> RunTruth(std::uint64_t seed) {
+  sim::SimulatedRobotConfig rc;
+  rc.seed = seed;
+  rc.load_cell_noise_Nm = 1.0;
+  rc.encoder_noise_rad = 1e-4;
+  rc.gyro_noise_rad_s = 0.01;
+  rc.accel_noise_m_s2 = 0.05;
+  LoopbackRig rig(rc);
+  std::vector<double> truth;
+  rig.robot->SetStepObserver([&](const sim::SimulatedRobot& r) {
+    const dynamics::VectorQ q = r.plant().q();
+    const dynamics::VectorV v = r.plant().v();
+    truth.insert(truth.end(), q.data(), q.data() + q.size());
+    truth.insert(truth.end(), v.data(), v.data() + v.size());
+    truth.insert(truth.end(), r.applied_torque_Nm().data(), r.applied_torque_Nm().data() + 12);
+  });
+  rig.BringUp();
+  for (int i = 0; i < 500; ++i) (void)rig.Cycle(Pd());
+  return truth;
+}
+
+TEST(SimulatedRobot, LockStepIsDeterministicBitForBit) {
+  const std::vector<double> a = RunTruth(7), b = RunTruth(7), c = RunTruth(8);
+  ASSERT_EQ(a.size(), b.size());
+  ASSERT_GT(a.size(), 500u * 37);
+  EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0);
+  EXPECT_TRUE(a.size() != c.size() || std::memcmp(a.data(), c.data(), a.size() * sizeof(double)) != 0)
+      << "another seed gives other sensor noise, hence another run";
+}
+
+TEST(SimulatedRobot, ActuatorStepResponseReaches63PercentAtTau) {
+  for (double tau : {0.005, 0.02}) {
+    sim::SimulatedRobotConfig rc;
+    rc.actuator_tau_s = tau;
+    LoopbackRig rig(rc);
+    rig.BringUp();
+    const int j = 4;  // rf_hfe
+    int applied_steps = 0, reached_at = -1;
+    for (int i = 0; i < 100 && reached_at < 0; ++i) {
+      (void)rig.Cycle([&](hal::ProcessImage& im) {
+        for (auto& c : im.commands) c.torque_Nm = 0;
+        if (i >= 10) im.commands[j].torque_Nm = 100.0;
+      });
+      // PollLockStep applied the set-point that came with this SYNC in one step
+      if (rig.robot->emulator().torque_setpoint_Nm(j) == 100.0) ++applied_steps;
+      if (rig.robot->applied_torque_Nm()(j) >= 100.0 * (1 - std::exp(-1.0))) reached_at = applied_steps;
+    }
+    const int expected = static_cast<int>(std::lround(tau / rig.cfg.timing.cycle_period_s));
+    EXPECT_NEAR(reached_at, expected, 1) << "tau " << tau;
+  }
+  // rate limit and saturation
+  sim::SimulatedRobotConfig rc;
+  rc.actuator_tau_s = 0;
+  rc.actuator_rate_limit_Nm_s = 20'000;  // 20 N·m per step
+  LoopbackRig rig(rc);
+  rig.BringUp();
+  for (int i = 0; i < 20; ++i)
+    (void)rig.Cycle([](hal::ProcessImage& im) {
+      for (auto& c : im.commands) c.torque_Nm = 0;
+      im.commands[1].torque_Nm = 1000.0;  // the HAL clamps to 150
+    });
+  EXPECT_DOUBLE_EQ(rig.robot->applied_torque_Nm()(1), 150.0);
+}
+
+TEST(SimulatedRobot, LoadCellNoiseHasTheConfiguredStandardDeviation) {
+  sim::SimulatedRobotConfig rc;
+  rc.load_cell_noise_Nm = 2.0;
+  rc.seed = 42;
+  LoopbackRig rig(rc);
+  rig.BringUp();
+  double sum = 0, sum2 = 0;
+  long n = 0;
+  for (int i = 0; i < 1500; ++i) {
+    const dynamics::VectorJ applied = rig.robot->applied_torque_Nm();  // what the next SYNC reports
+    (void)rig.hal->Read(rig.now());
+    StandingPd(HilModel(), rig.hal->image());
+    (void)rig.hal->Write(rig.now());
+    (void)rig.robot->PollLockStep();
+    (void)rig.hal->Read(rig.now());
+    for (int j = 0; j < hal::kNumJoints; ++j) {
+      const double e = rig.hal->image().joints[static_cast<std::size_t>(j)].torque_Nm - applied(j);
+      sum += e;
+      sum2 += e * e;
+      ++n;
+    }
+    (void)rig.hal->Write(rig.now());
+    (void)rig.robot->PollLockStep();
+  }
+  const double mean = sum / n, sd = std::sqrt(sum2 / n - mean * mean);
+  EXPECT_NEAR(sd, 2.0, 0.1) << n << " samples";
+  EXPECT_NEAR(mean, 0.0, 0.1);
+}
+
+TEST(SimulatedRobot, ImuAtRestReadsGravityUpsideDownAndNoRotation) {
+  // on the stand (held): exactly at rest
+  LoopbackRig held;
+  held.BringUp(DeviceState::kSafeOp);
+  for (int i = 0; i < 5; ++i) (void)held.Cycle();
+  const hal::ImuInput& imu = held.hal->image().imu;
+  ASSERT_TRUE(imu.valid());
+  // the IMU is mounted upside down (rotated by pi about y): +g up reads as -z
+  EXPECT_NEAR(imu.accel_m_s2[2], -9.81, 1e-5);
+  EXPECT_NEAR(imu.accel_m_s2[0], 0.0, 1e-5);
+  EXPECT_NEAR(imu.accel_m_s2[1], 0.0, 1e-5);
+  for (double g : imu.gyro_rad_s) EXPECT_NEAR(g, 0.0, 1e-6);
+  // standing on its own feet (MuJoCo's accelerometer and gyro at the site): the same, nearly
+  sim::SimulatedRobotConfig rc;
+  rc.hold = false;
+  LoopbackRig free(rc);
+  free.BringUp();
+  for (int i = 0; i < 1500; ++i) (void)free.Cycle(Pd());
+  const hal::ImuInput& m = free.hal->image().imu;
+  ASSERT_TRUE(m.valid());
+  EXPECT_NEAR(m.accel_m_s2[2], -9.81, 0.2);
+  EXPECT_NEAR(m.accel_m_s2[0], 0.0, 0.2);
+  EXPECT_NEAR(m.accel_m_s2[1], 0.0, 0.2);
+  for (double g : m.gyro_rad_s) EXPECT_NEAR(g, 0.0, 0.02);
+  // a fall is seen: free fall reads ~0 specific force
+  EXPECT_FALSE(free.robot->fell());
+}
+
+TEST(SimulatedRobot, HoldsOnTheStandUntilEveryBoardIsEnabled) {
+  LoopbackRig rig;
+  rig.BringUp(DeviceState::kSafeOp);
+  for (int i = 0; i < 500; ++i) (void)rig.Cycle();
+  EXPECT_TRUE(rig.robot->holding());
+  EXPECT_LE((rig.robot->plant().q() - HilModel().StandingQ()).cwiseAbs().maxCoeff(), 1e-12)
+      << (rig.robot->plant().q() - HilModel().StandingQ()).transpose();
+  hal::Hal& hal = *rig.hal;
+  hal.RequestState(DeviceState::kOp, rig.now());
+  int released_after = -1;
+  for (int i = 0; i < 100 && released_after < 0; ++i) {
+    (void)rig.Cycle(Pd());
+    bool all = true;
+    for (int j = 0; j < hal::kNumJoints; ++j) all = all && rig.robot->emulator().outputs_enabled(j);
+    if (!rig.robot->holding()) {
+      EXPECT_TRUE(all);
+      released_after = i;
+    }
+  }
+  EXPECT_GE(released_after, 0);
+  for (int i = 0; i < 3; ++i) (void)rig.Cycle(Pd());  // the HAL sees the confirmations
+  EXPECT_TRUE(hal.AllIn(DeviceState::kOp)) << hal.BringUpReport(rig.now());
+}
+
+TEST(SimulatedRobot, EveryFaultKindShowsUpInTheHal) {
+  LoopbackRig rig;
+  const hal::HalConfig& cfg = rig.cfg;
+  for (const char* f : {"0.5:silent:lf_kfe", "0.5:corrupt:rf_hfe:20", "0.5:drop:lh_haa:5",
+                        "0.5:nan:lh_kfe", "0.5:bus-off:rh", "0.5:emcy:rf_kfe:0x3100"})
+    rig.robot->ScheduleFault(sim::ParseFaultSpec(f, cfg));
+  rig.BringUp();
+  while (rig.robot->time_s() < 0.45) (void)rig.Cycle(Pd());
+  hal::BusCounters before[4];
+  for (int b = 0; b < 4; ++b) before[b] = rig.hal->bus(static_cast<std::size_t>(b)).counters();
+  while (rig.robot->time_s() < 0.6) (void)rig.Cycle(Pd());
+  auto now = [&](int b) { return rig.hal->bus(static_cast<std::size_t>(b)).counters(); };
+  EXPECT_EQ(rig.robot->counters().faults_injected, 6u);
+  // silent lf_kfe: missing inputs on lf (until the HAL gives the device up), joint 2 not valid
+  EXPECT_GE(now(0).missing, before[0].missing + 3);
+  EXPECT_NE(rig.hal->image().joints[2].status, InputStatus::kValid);
+  EXPECT_NE(rig.hal->image().joints[2].device_state, DeviceState::kOp);
+  // corrupt rf_hfe x20: malformed frames on rf
+  EXPECT_EQ(now(1).malformed - before[1].malformed, 20u);
+  // emcy on rf_kfe
+  EXPECT_GT(now(1).emcy, before[1].emcy);
+  // drop lh_haa x5 and the broken lh_kfe load cell
+  EXPECT_GE(now(2).missing - before[2].missing, 5u);
+  const hal::JointInput& lh_kfe = rig.hal->image().joints[8];
+  EXPECT_NE(lh_kfe.status_word & hal::status_bit::kSensorFault, 0);
+  EXPECT_EQ(lh_kfe.status, InputStatus::kDeviceFault);
+  EXPECT_EQ(lh_kfe.effort_counts, hal::kInvalidSensorCounts);
+  EXPECT_NE(lh_kfe.device_state, DeviceState::kOp);
+  // bus-off rh: nothing from rh any more
+  EXPECT_TRUE(rig.robot->emulator().bus_off(3));
+  EXPECT_GE(now(3).missing - before[3].missing, 3u * 3);
+  for (int j = 9; j < 12; ++j) {
+    EXPECT_NE(rig.hal->image().joints[static_cast<std::size_t>(j)].status, InputStatus::kValid);
+    EXPECT_NE(rig.hal->image().joints[static_cast<std::size_t>(j)].device_state, DeviceState::kOp);
+  }
+  // the other joints still fine
+  EXPECT_EQ(rig.hal->image().joints[0].status, InputStatus::kValid);
+  // lock-step went on: the master's SYNCs reach every bus
+  EXPECT_EQ(rig.robot->counters().lockstep_forced, 0u);
+}
+
+TEST(SimulatedRobot, FaultSpecErrorsNameWhatWasExpectedAndFound) {
+  const hal::HalConfig cfg = HilHalConfig();
+  const sim::FaultSpec f = sim::ParseFaultSpec("3.0:corrupt:rf_hfe:20", cfg);
+  EXPECT_EQ(f.kind, sim::FaultSpec::Kind::kCorrupt);
+  EXPECT_EQ(f.joint, 4);
+  EXPECT_EQ(f.count, 20u);
+  EXPECT_EQ(sim::ParseFaultSpec("4:bus-off:rh:0.5", cfg).bus, 3);
+  EXPECT_EQ(sim::ParseFaultSpec("1:silent:imu", cfg).joint, sim::FaultSpec::kImuTarget);
+  EXPECT_EQ(sim::ParseFaultSpec("1:nan:lh_kfe_joint", cfg).joint, 8);
+  auto msg = [&](const char* s) {
+    try {
+      (void)sim::ParseFaultSpec(s, cfg);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(msg("x:silent:lf_kfe").find("expected a time"), std::string::npos);
+  EXPECT_NE(msg("1:melt:lf_kfe").find("found 'melt'"), std::string::npos);
+  EXPECT_NE(msg("1:silent:lf_xyz").find("found 'lf_xyz'"), std::string::npos);
+  EXPECT_NE(msg("1:bus-off:lf_kfe").find("expected a bus lf|rf|lh|rh"), std::string::npos);
+  EXPECT_NE(msg("1:drop:lf_kfe:-3").find("frame count"), std::string::npos);
+  EXPECT_NE(msg("1:silent").find("T:KIND:TARGET"), std::string::npos);
+}
+
+TEST(SimulatedRobot, LockStepCycleDoesNotAllocate) {
+  HYQ_REQUIRE_HEAP_HOOKS();
+  sim::SimulatedRobotConfig rc;
+  rc.load_cell_noise_Nm = 1.0;
+  rc.gyro_noise_rad_s = 0.01;
+  LoopbackRig rig(rc);
+  rig.BringUp(DeviceState::kSafeOp);  // held on the stand: the hold path
+  {
+    NoHeapGuard guard;
+    for (int i = 0; i < 50; ++i) (void)rig.Cycle();
+    EXPECT_EQ(guard.allocations(), 0u);
+  }
+  EXPECT_TRUE(rig.robot->holding());
+  rig.hal->RequestState(DeviceState::kOp, rig.now());
+  for (int i = 0; i < 40; ++i) (void)rig.Cycle(Pd());
+  ASSERT_FALSE(rig.robot->holding());
+  {
+    NoHeapGuard guard;
+    for (int i = 0; i < 200; ++i) {
+      (void)rig.hal->Read(rig.now());
+      StandingPd(HilModel(), rig.hal->image());
+      (void)rig.hal->Write(rig.now());
+      (void)rig.robot->PollLockStep();
+    }
+    EXPECT_EQ(guard.allocations(), 0u);
+  }
+}
+
+TEST(SimulatedRobot, RealTimeModeStepsAtTheCyclePeriodOnTheMonotonicClock) {
+  LoopbackRig rig;
+  std::atomic<bool> stop{false};
+  const std::int64_t t0 = MonotonicNs();
+  const std::uint64_t steps = rig.robot->RunRealTime(stop, 0.2);
+  const double wall = 1e-9 * static_cast<double>(MonotonicNs() - t0);
+  EXPECT_EQ(steps, 200u);
+  EXPECT_NEAR(wall, 0.2, 0.03) << "physics follows the wall clock";
+  EXPECT_TRUE(rig.robot->holding()) << "no master: still on its stand";
+}
+
+}  // namespace
+}  // namespace hyq::testing

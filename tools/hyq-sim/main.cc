@@ -1,0 +1,329 @@
+// hyq-sim: the simulated HyQ (issue #8). The MuJoCo plant behind HyQ's 12 actuator boards and
+// IMU (hyq::sim::SimulatedRobot) on virtual CAN (udp::43101..43104 for lf, rf, lh, rh by default)
+// or SocketCAN, so that the unmodified servo daemon drives it like the real robot.
+// docs/simulation.md describes the modes, the models, the faults and this command line.
+#include <signal.h>
+#include <time.h>
+
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <exception>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "config/hal_config_loader.h"
+#include "drivers/channel_factory.h"
+#include "dynamics/urdf_loader.h"
+#include "tools/sim/simulated_robot.h"
+
+namespace {
+
+constexpr const char* kTool = "hyq-sim";
+
+struct Options {
+  std::string config = HYQ_DEFAULT_HAL_CONFIG;
+  std::string urdf = HYQ_DEFAULT_URDF;
+  std::map<std::string, std::string> interfaces;  // bus name → channel spec
+  bool lockstep = true;
+  hyq::sim::SimulatedRobotConfig robot;
+  double duration_s = 0.0;
+  std::vector<std::string> faults;
+  std::string truth, summary;
+  int truth_every = 10;
+  bool quiet = false;
+};
+
+[[noreturn]] void Usage(int code) {
+  std::fprintf(
+      code == 0 ? stdout : stderr,
+      "usage: hyq-sim [--config FILE] [--urdf FILE] [--interface BUS=SPEC]...\n"
+      "               [--mode lockstep|realtime] [--duration S] [--mu MU] [--foot-mu A,B,C,D]\n"
+      "               [--actuator-tau S] [--actuator-rate-limit NM_S] [--load-cell-noise NM]\n"
+      "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--no-hold] [--seed N]\n"
+      "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
+      "               [--summary FILE] [--fall-height M] [--quiet]\n"
+      "The simulated HyQ: the MuJoCo plant behind HyQ's actuator boards and IMU on CAN, driven\n"
+      "by the servo daemon (or any HAL master) through NMT, SYNC and RPDOs. docs/simulation.md.\n"
+      "  --config FILE          HAL configuration (default " HYQ_DEFAULT_HAL_CONFIG ")\n"
+      "  --urdf FILE            robot model (default " HYQ_DEFAULT_URDF ")\n"
+      "  --interface BUS=SPEC   bus BUS on SPEC (docs/drivers.md). Default: the virtual buses\n"
+      "                         udp::43101 (lf), udp::43102 (rf), udp::43103 (lh), udp::43104 (rh)\n"
+      "  --mode M               lockstep (default): one physics step per SYNC seen on every bus,\n"
+      "                         deterministic, as fast as the master; realtime: 1 kHz on\n"
+      "                         CLOCK_MONOTONIC, SYNCs answered with the latest state\n"
+      "  --duration S           stop after S simulated seconds (default 0: until SIGINT/SIGTERM)\n"
+      "  --mu MU                ground friction (default 1.0)\n"
+      "  --foot-mu A,B,C,D      per-foot friction lf,rf,lh,rh (negative: the ground's)\n"
+      "  --actuator-tau S       actuator time constant (default 0.005; 0 = ideal)\n"
+      "  --actuator-rate-limit R  torque rate limit, N·m/s (default 0 = none)\n"
+      "  --load-cell-noise NM   σ of the measured joint torque, N·m (default 0)\n"
+      "  --encoder-noise RAD    σ added to the joint angle before quantisation (default 0)\n"
+      "  --imu-noise G[,A]      σ of the gyro (rad/s) and accelerometer (m/s²) (default 0,0)\n"
+      "  --no-hold              do not hold the robot on its stand until all outputs are enabled\n"
+      "  --seed N               sensor-noise seed (default 1)\n"
+      "  --fault T:KIND:TARGET[:ARG]  at simulated time T: silent|corrupt|drop|nan|bus-off|emcy;\n"
+      "                         TARGET a device (lf_kfe, imu) or for bus-off a bus (rh); ARG\n"
+      "                         frames (corrupt, drop), seconds (silent, bus-off), code (emcy).\n"
+      "                         e.g. 2.5:silent:lf_kfe 3.0:corrupt:rf_hfe:20 4.0:bus-off:rh\n"
+      "  --truth FILE           ground-truth CSV (t, base pose, q, qd, applied tau, contacts)\n"
+      "  --truth-every N        one truth row every N steps (default 10)\n"
+      "  --summary FILE         JSON at exit (time, fell, min base height, SYNCs per bus, speed)\n"
+      "  --fall-height M        base height below which the robot has fallen (default 0.3)\n"
+      "  --quiet                no progress line on stderr\n");
+  std::exit(code);
+}
+
+[[noreturn]] void Bad(std::string_view flag, std::string_view expected, std::string_view found) {
+  std::fprintf(stderr, "%s: %.*s: expected %.*s, found '%.*s'\n", kTool,
+               static_cast<int>(flag.size()), flag.data(), static_cast<int>(expected.size()),
+               expected.data(), static_cast<int>(found.size()), found.data());
+  std::exit(2);
+}
+
+double Number(std::string_view flag, const std::string& v, double min, std::string_view what) {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || !std::isfinite(x) || x < min) Bad(flag, what, v);
+  return x;
+}
+
+std::vector<std::string> Split(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t c = s.find(',', start);
+    out.push_back(s.substr(start, c - start));
+    if (c == std::string::npos) return out;
+    start = c + 1;
+  }
+}
+
+Options Parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string_view a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) Bad(a, "a value", "end of arguments");
+      return argv[++i];
+    };
+    if (a == "-h" || a == "--help") Usage(0);
+    else if (a == "--config") o.config = value();
+    else if (a == "--urdf") o.urdf = value();
+    else if (a == "--interface") {
+      const std::string v = value();
+      const auto eq = v.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == v.size()) Bad(a, "BUS=SPEC", v);
+      o.interfaces[v.substr(0, eq)] = v.substr(eq + 1);
+    } else if (a == "--mode") {
+      const std::string v = value();
+      if (v == "lockstep") o.lockstep = true;
+      else if (v == "realtime") o.lockstep = false;
+      else Bad(a, "lockstep or realtime", v);
+    } else if (a == "--duration") o.duration_s = Number(a, value(), 0, "simulated seconds >= 0");
+    else if (a == "--mu") o.robot.plant.ground_mu = Number(a, value(), 0, "a friction coefficient >= 0");
+    else if (a == "--foot-mu") {
+      const std::string v = value();
+      const auto p = Split(v);
+      if (p.size() != 4) Bad(a, "four comma-separated coefficients A,B,C,D", v);
+      for (std::size_t f = 0; f < 4; ++f)
+        o.robot.plant.foot_mu[f] = Number(a, p[f], -1e9, "four numbers A,B,C,D");
+    } else if (a == "--actuator-tau") o.robot.actuator_tau_s = Number(a, value(), 0, "seconds >= 0");
+    else if (a == "--actuator-rate-limit")
+      o.robot.actuator_rate_limit_Nm_s = Number(a, value(), 0, "N·m/s >= 0");
+    else if (a == "--load-cell-noise") o.robot.load_cell_noise_Nm = Number(a, value(), 0, "N·m >= 0");
+    else if (a == "--encoder-noise") o.robot.encoder_noise_rad = Number(a, value(), 0, "rad >= 0");
+    else if (a == "--imu-noise") {
+      const std::string v = value();
+      const auto p = Split(v);
+      if (p.size() > 2) Bad(a, "GYRO[,ACCEL] (rad/s, m/s²)", v);
+      o.robot.gyro_noise_rad_s = Number(a, p[0], 0, "GYRO[,ACCEL] >= 0");
+      if (p.size() == 2) o.robot.accel_noise_m_s2 = Number(a, p[1], 0, "GYRO[,ACCEL] >= 0");
+    } else if (a == "--no-hold") o.robot.hold = false;
+    else if (a == "--seed") {
+      const std::string v = value();
+      char* end = nullptr;
+      const unsigned long long s = std::strtoull(v.c_str(), &end, 10);
+      if (v.empty() || *end != '\0' || v[0] == '-') Bad(a, "an unsigned integer", v);
+      o.robot.seed = s;
+    } else if (a == "--fault") o.faults.push_back(value());
+    else if (a == "--truth") o.truth = value();
+    else if (a == "--truth-every")
+      o.truth_every = static_cast<int>(Number(a, value(), 1, "an integer >= 1"));
+    else if (a == "--summary") o.summary = value();
+    else if (a == "--fall-height") o.robot.fall_height_m = Number(a, value(), 0, "metres >= 0");
+    else if (a == "--quiet") o.quiet = true;
+    else {
+      std::fprintf(stderr, "%s: unknown option '%s' (--help lists them)\n", kTool, argv[i]);
+      std::exit(2);
+    }
+  }
+  return o;
+}
+
+/// The default virtual bus of bus `index` named `name`: lf, rf, lh, rh → udp::43101..43104.
+std::string DefaultSpec(const std::string& name, std::size_t index) {
+  static const char* const kLegs[] = {"lf", "rf", "lh", "rh"};
+  for (int i = 0; i < 4; ++i)
+    if (name == kLegs[i]) return "udp::" + std::to_string(43101 + i);
+  return "udp::" + std::to_string(43101 + index);
+}
+
+double WallS() {
+  timespec t{};
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+
+std::atomic<bool> g_stop{false};
+void OnSignal(int) { g_stop = true; }
+
+std::string JsonString(const std::string& s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    out += c;
+  }
+  return out + "\"";
+}
+
+int Run(const Options& o) {
+  using namespace hyq;
+  hal::HalConfig cfg = config::LoadHalConfig(o.config);
+  for (const auto& [bus, spec] : o.interfaces) {
+    bool found = false;
+    for (const hal::BusConfig& b : cfg.buses) found = found || b.name == bus;
+    if (!found) Bad("--interface", "a bus of " + o.config, bus);
+  }
+  const dynamics::Model model = dynamics::LoadModelFromUrdf(o.urdf);
+  std::vector<std::unique_ptr<hal::CanChannel>> owned;
+  std::vector<hal::CanChannel*> channels;
+  for (std::size_t b = 0; b < cfg.buses.size(); ++b) {
+    const auto it = o.interfaces.find(cfg.buses[b].name);
+    const std::string spec = it != o.interfaces.end() ? drivers::SpecForInterface(it->second)
+                                                      : DefaultSpec(cfg.buses[b].name, b);
+    owned.push_back(drivers::OpenChannel(spec));
+    channels.push_back(owned.back().get());
+    if (!o.quiet) std::fprintf(stderr, "%s: bus %-3s on %s\n", kTool, cfg.buses[b].name.c_str(), spec.c_str());
+  }
+  sim::SimulatedRobot robot(model, cfg, channels, o.robot);
+  for (const std::string& f : o.faults) {
+    try {
+      robot.ScheduleFault(sim::ParseFaultSpec(f, cfg));
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "%s: --fault: %s\n", kTool, e.what());
+      return 2;
+    }
+  }
+
+  std::ofstream truth;
+  if (!o.truth.empty()) {
+    truth.open(o.truth);
+    if (!truth) throw std::runtime_error("--truth: cannot write '" + o.truth + "'");
+    truth.precision(9);
+    truth << "t,x,y,z,qw,qx,qy,qz";
+    for (const char* p : {"q_", "qd_", "tau_"})
+      for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << p << hal::JointName(j);
+    for (const char* leg : {"lf", "rf", "lh", "rh"})
+      truth << ',' << leg << "_fx," << leg << "_fy," << leg << "_fz," << leg << "_touching";
+    truth << ",body_touching,holding\n";
+  }
+  double first_step_wall = 0, last_step_wall = 0, release_wall = 0, release_t = 0;
+  double next_progress = 1.0;
+  robot.SetStepObserver([&](const sim::SimulatedRobot& r) {
+    last_step_wall = WallS();
+    if (r.counters().steps == 1) first_step_wall = last_step_wall;
+    if (release_wall == 0 && !r.holding()) {
+      release_wall = last_step_wall;
+      release_t = r.time_s();
+    }
+    if (truth.is_open() && r.counters().steps % static_cast<std::uint64_t>(o.truth_every) == 0) {
+      const dynamics::VectorQ q = r.plant().q();
+      const dynamics::VectorV v = r.plant().v();
+      truth << r.time_s();
+      for (int i = 0; i < 7; ++i) truth << ',' << q(i);
+      for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << q(7 + j);
+      for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << v(6 + j);
+      for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << r.applied_torque_Nm()(j);
+      for (const sim::FootContact& c : r.plant().FootContacts())
+        truth << ',' << c.force_W.x() << ',' << c.force_W.y() << ',' << c.force_W.z() << ','
+              << (c.touching ? 1 : 0);
+      truth << ',' << (r.plant().BodyTouchesGround() ? 1 : 0) << ',' << (r.holding() ? 1 : 0)
+            << '\n';
+    }
+    if (!o.quiet && r.time_s() + 1e-9 >= next_progress) {
+      next_progress += 1.0;
+      const double wall = last_step_wall - first_step_wall;
+      std::fprintf(stderr, "%s: t %.1f s, base z %.3f m%s%s, %.2fx real time\n", kTool,
+                   r.time_s(), r.plant().q()(2), r.holding() ? ", held" : "",
+                   r.fell() ? ", FELL" : "", wall > 0 ? r.time_s() / wall : 0.0);
+    }
+  });
+
+  signal(SIGINT, OnSignal);
+  signal(SIGTERM, OnSignal);
+  const double start_wall = WallS();
+  if (o.lockstep) (void)robot.RunLockStep(g_stop, o.duration_s);
+  else (void)robot.RunRealTime(g_stop, o.duration_s);
+  const double end_wall = WallS();
+  if (truth.is_open()) truth.close();
+
+  const auto& c = robot.counters();
+  const double stepping_wall = last_step_wall - first_step_wall;
+  const double speed = stepping_wall > 0 ? robot.time_s() / stepping_wall : 0.0;
+  if (!o.summary.empty()) {
+    std::ofstream s(o.summary);
+    if (!s) throw std::runtime_error("--summary: cannot write '" + o.summary + "'");
+    s.precision(9);
+    s << "{\n  \"mode\": \"" << (o.lockstep ? "lockstep" : "realtime") << "\",\n"
+      << "  \"simulated_time_s\": " << robot.time_s() << ",\n"
+      << "  \"steps\": " << c.steps << ",\n  \"held_steps\": " << c.held_steps << ",\n"
+      << "  \"fell\": " << (robot.fell() ? "true" : "false") << ",\n"
+      << "  \"fell_at_s\": " << (robot.fell() ? robot.fell_at_s() : 0.0) << ",\n"
+      << "  \"min_base_height_m\": " << robot.min_base_height_m() << ",\n"
+      << "  \"syncs_per_bus\": {";
+    for (std::size_t b = 0; b < cfg.buses.size(); ++b)
+      s << (b ? ", " : "") << JsonString(cfg.buses[b].name) << ": " << c.syncs[b];
+    s << "},\n  \"wall_s\": " << end_wall - start_wall << ",\n"
+      << "  \"stepping_wall_s\": " << stepping_wall << ",\n"
+      << "  \"speed\": " << speed << ",\n"
+      << "  \"released_at_s\": " << release_t << ",\n"
+      << "  \"speed_after_release\": "
+      << (last_step_wall > release_wall && release_wall > 0
+              ? (robot.time_s() - release_t) / (last_step_wall - release_wall)
+              : 0.0)
+      << ",\n"
+      << "  \"lockstep_forced_steps\": " << c.lockstep_forced << ",\n"
+      << "  \"realtime_overruns\": " << c.realtime_overruns << ",\n"
+      << "  \"faults_injected\": " << c.faults_injected << ",\n  \"faults\": [";
+    for (std::size_t i = 0; i < robot.faults().size(); ++i) {
+      const sim::FaultSpec& f = robot.faults()[i];
+      s << (i ? ", " : "") << "{\"spec\": " << JsonString(f.text) << ", \"t_s\": " << f.t_s
+        << ", \"kind\": \"" << sim::ToString(f.kind) << "\", \"injected\": "
+        << (robot.time_s() + 1e-9 >= f.t_s ? "true" : "false") << "}";
+    }
+    s << "]\n}\n";
+  }
+  if (!o.quiet)
+    std::fprintf(stderr, "%s: %.3f simulated s in %llu steps, %s, min base height %.3f m, %.2fx real time\n",
+                 kTool, robot.time_s(), static_cast<unsigned long long>(c.steps),
+                 robot.fell() ? "fell" : "did not fall", robot.min_base_height_m(), speed);
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const Options o = Parse(argc, argv);
+  try {
+    return Run(o);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "%s: %s\n", kTool, e.what());
+    return 1;
+  }
+}

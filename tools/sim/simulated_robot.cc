@@ -1,0 +1,401 @@
+#include "tools/sim/simulated_robot.h"
+
+#include <poll.h>
+#include <sys/timerfd.h>
+#include <time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <stdexcept>
+
+#include <Eigen/Geometry>
+
+#include "hal/config_error.h"
+#include "hal/protocol.h"
+
+namespace hyq::sim {
+
+/// The device side of one bus, counting the SYNCs that arrive (even those the emulator ignores,
+/// e.g. while its bus is off), so that lock-step follows the master's SYNCs on the wire.
+class SimulatedRobot::SyncCounter final : public hal::CanChannel {
+ public:
+  explicit SyncCounter(hal::CanChannel* inner) : inner_(inner) {}
+  hal::CanStatus Send(std::span<const hal::CanFrame> f, std::size_t* sent) noexcept override {
+    return inner_->Send(f, sent);
+  }
+  hal::CanStatus Receive(std::span<hal::CanFrame> out, std::size_t* received) noexcept override {
+    const hal::CanStatus s = inner_->Receive(out, received);
+    for (std::size_t i = 0; i < *received; ++i) {
+      const hal::CanFrame& f = out[i];
+      if (f.id == hal::cob::kSync && !f.is_extended() && !f.is_error()) ++syncs_;
+    }
+    return s;
+  }
+  const hal::CanCounters& counters() const noexcept override { return inner_->counters(); }
+  bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
+  std::string_view name() const noexcept override { return inner_->name(); }
+  int poll_fd() const noexcept override { return inner_->poll_fd(); }
+  std::uint64_t syncs() const noexcept { return syncs_; }
+
+ private:
+  hal::CanChannel* inner_;
+  std::uint64_t syncs_ = 0;
+};
+
+namespace {
+
+std::int64_t MonotonicNs() {
+  timespec t{};
+  clock_gettime(CLOCK_MONOTONIC, &t);
+  return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
+}
+
+}  // namespace
+
+const char* ToString(FaultSpec::Kind k) noexcept {
+  switch (k) {
+    case FaultSpec::Kind::kSilent: return "silent";
+    case FaultSpec::Kind::kCorrupt: return "corrupt";
+    case FaultSpec::Kind::kDrop: return "drop";
+    case FaultSpec::Kind::kNan: return "nan";
+    case FaultSpec::Kind::kBusOff: return "bus-off";
+    case FaultSpec::Kind::kEmcy: return "emcy";
+  }
+  return "?";
+}
+
+FaultSpec ParseFaultSpec(const std::string& text, const hal::HalConfig& config) {
+  auto fail = [&](const std::string& what) {
+    throw std::invalid_argument("fault '" + text + "': " + what);
+  };
+  std::vector<std::string> part;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t colon = text.find(':', start);
+    part.push_back(text.substr(start, colon - start));
+    if (colon == std::string::npos) break;
+    start = colon + 1;
+  }
+  if (part.size() < 3 || part.size() > 4)
+    fail("expected T:KIND:TARGET[:ARG], found " + std::to_string(part.size()) + " field(s)");
+  FaultSpec f;
+  f.text = text;
+  char* end = nullptr;
+  f.t_s = std::strtod(part[0].c_str(), &end);
+  if (part[0].empty() || *end != '\0' || !std::isfinite(f.t_s) || f.t_s < 0)
+    fail("expected a time in simulated seconds >= 0, found '" + part[0] + "'");
+  const std::string& kind = part[1];
+  if (kind == "silent") f.kind = FaultSpec::Kind::kSilent;
+  else if (kind == "corrupt") f.kind = FaultSpec::Kind::kCorrupt;
+  else if (kind == "drop") f.kind = FaultSpec::Kind::kDrop;
+  else if (kind == "nan") f.kind = FaultSpec::Kind::kNan;
+  else if (kind == "bus-off") f.kind = FaultSpec::Kind::kBusOff;
+  else if (kind == "emcy") f.kind = FaultSpec::Kind::kEmcy;
+  else fail("expected a kind silent|corrupt|drop|nan|bus-off|emcy, found '" + kind + "'");
+  const std::string& target = part[2];
+  if (f.kind == FaultSpec::Kind::kBusOff) {
+    std::string names;
+    for (std::size_t b = 0; b < config.buses.size(); ++b) {
+      if (config.buses[b].name == target) f.bus = static_cast<int>(b);
+      names += (b ? "|" : "") + config.buses[b].name;
+    }
+    if (f.bus < 0) fail("expected a bus " + names + ", found '" + target + "'");
+  } else {
+    f.joint = hal::JointIndex(target);
+    for (const hal::BusConfig& b : config.buses)
+      for (const hal::DeviceConfig& d : b.devices)
+        if (d.name == target) f.joint = d.kind == hal::DeviceKind::kImu ? FaultSpec::kImuTarget : d.joint;
+    if (f.joint == -1)
+      fail("expected a device (lf_haa, ..., imu) or joint (lf_haa_joint, ...), found '" + target +
+           "'");
+    if (f.joint == FaultSpec::kImuTarget && f.kind == FaultSpec::Kind::kEmcy)
+      fail("expected an actuator board for emcy, found the IMU");
+  }
+  if (part.size() == 4) {
+    const std::string& a = part[3];
+    switch (f.kind) {
+      case FaultSpec::Kind::kCorrupt:
+      case FaultSpec::Kind::kDrop: {
+        const long n = std::strtol(a.c_str(), &end, 10);
+        if (a.empty() || *end != '\0' || n < 1 || n > 1'000'000'000)
+          fail("expected a frame count >= 1, found '" + a + "'");
+        f.count = static_cast<std::uint32_t>(n);
+        break;
+      }
+      case FaultSpec::Kind::kSilent:
+      case FaultSpec::Kind::kBusOff:
+        f.duration_s = std::strtod(a.c_str(), &end);
+        if (a.empty() || *end != '\0' || !(f.duration_s > 0) || !std::isfinite(f.duration_s))
+          fail("expected a duration in seconds > 0, found '" + a + "'");
+        break;
+      case FaultSpec::Kind::kEmcy: {
+        const long c = std::strtol(a.c_str(), &end, 0);
+        if (a.empty() || *end != '\0' || c < 0 || c > 0xFFFF)
+          fail("expected an EMCY code 0..0xFFFF, found '" + a + "'");
+        f.emcy_code = static_cast<std::uint16_t>(c);
+        break;
+      }
+      case FaultSpec::Kind::kNan: fail("expected no argument for nan, found '" + a + "'");
+    }
+  }
+  return f;
+}
+
+SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfig& config,
+                               std::span<hal::CanChannel* const> channels,
+                               const SimulatedRobotConfig& cfg)
+    : model_(model),
+      config_(config),
+      cfg_(cfg),
+      period_ns_(std::llround(config.timing.cycle_period_s * 1e9)),
+      alpha_(cfg.actuator_tau_s > 0 ? -std::expm1(-config.timing.cycle_period_s / cfg.actuator_tau_s)
+                                    : 1.0),
+      holding_(cfg.hold),
+      min_base_height_m_(model.standing_base_height_m),
+      rng_(cfg.seed == 0 ? 0x9E3779B97F4A7C15ull : cfg.seed) {
+  if (!(cfg.actuator_tau_s >= 0) || !(cfg.actuator_rate_limit_Nm_s >= 0) ||
+      !(cfg.encoder_noise_rad >= 0) || !(cfg.load_cell_noise_Nm >= 0) ||
+      !(cfg.gyro_noise_rad_s >= 0) || !(cfg.accel_noise_m_s2 >= 0))
+    throw hal::ConfigError("simulated robot: time constants, rate limits and noise levels must be "
+                           ">= 0");
+  if (channels.size() != config.buses.size())
+    throw hal::ConfigError("simulated robot: " + std::to_string(config.buses.size()) +
+                           " buses configured but " + std::to_string(channels.size()) +
+                           " CAN channels given");
+  std::vector<hal::CanChannel*> wrapped;
+  for (hal::CanChannel* c : channels) {
+    if (c == nullptr) throw hal::ConfigError("simulated robot: a CAN channel is missing");
+    channels_.push_back(std::make_unique<SyncCounter>(c));
+    wrapped.push_back(channels_.back().get());
+  }
+  emulator_ = std::make_unique<hal::Emulator>(config_, wrapped, cfg.seed);
+  PlantConfig pc = cfg.plant;
+  pc.timestep_s = config.timing.cycle_period_s;
+  pc.imu_sensor = true;
+  plant_ = std::make_unique<Plant>(model, pc);
+  q_hold_ = model.StandingQ();
+  plant_->Reset(q_hold_, dynamics::VectorV::Zero());
+  R_BF_ = model.imu.R_BF;
+  UpdateSensors();
+}
+
+SimulatedRobot::~SimulatedRobot() = default;
+
+void SimulatedRobot::ScheduleFault(const FaultSpec& f) {
+  faults_.push_back(f);
+  fault_state_.push_back(0);
+}
+
+double SimulatedRobot::time_s() const noexcept {
+  return static_cast<double>(counters_.steps) * config_.timing.cycle_period_s;
+}
+
+double SimulatedRobot::Gaussian() noexcept {
+  // Marsaglia's polar method on xorshift64* uniforms (the same numbers on every platform)
+  if (has_spare_) {
+    has_spare_ = false;
+    return spare_gaussian_;
+  }
+  auto uniform = [this] {
+    rng_ ^= rng_ >> 12;
+    rng_ ^= rng_ << 25;
+    rng_ ^= rng_ >> 27;
+    return static_cast<double>((rng_ * 2685821657736338717ull) >> 11) * 0x1.0p-53;
+  };
+  double u = 0, v = 0, s = 0;
+  do {
+    u = 2 * uniform() - 1;
+    v = 2 * uniform() - 1;
+    s = u * u + v * v;
+  } while (s >= 1 || s == 0);
+  const double m = std::sqrt(-2 * std::log(s) / s);
+  spare_gaussian_ = v * m;
+  has_spare_ = true;
+  return u * m;
+}
+
+void SimulatedRobot::ApplyFaults() noexcept {
+  const double t = time_s() + 1e-9;
+  for (std::size_t i = 0; i < faults_.size(); ++i) {
+    const FaultSpec& f = faults_[i];
+    std::uint8_t& st = fault_state_[i];
+    if (st == 0 && t >= f.t_s) {
+      st = f.duration_s > 0 ? 1 : 2;
+      ++counters_.faults_injected;
+      hal::DeviceFaults& x =
+          f.joint == FaultSpec::kImuTarget ? emulator_->imu_faults() : emulator_->joint_faults(f.joint);
+      switch (f.kind) {
+        case FaultSpec::Kind::kSilent: x.silent = true; break;
+        case FaultSpec::Kind::kCorrupt: x.corrupt_next += f.count; break;
+        case FaultSpec::Kind::kDrop: x.drop_next += f.count; break;
+        case FaultSpec::Kind::kNan:
+          // a broken load cell: garbage counts with the sensor-fault bit, and the board (whose
+          // torque loop needs the sensor) latches a fault and reports it
+          x.sensor_fault = true;
+          if (f.joint >= 0) emulator_->SendJointEmcy(f.joint, hal::emcy::kSensor);
+          break;
+        case FaultSpec::Kind::kBusOff: emulator_->SetBusOff(f.bus, true); break;
+        case FaultSpec::Kind::kEmcy: emulator_->SendJointEmcy(f.joint, f.emcy_code); break;
+      }
+    } else if (st == 1 && t >= f.t_s + f.duration_s) {
+      st = 2;
+      if (f.kind == FaultSpec::Kind::kBusOff) emulator_->SetBusOff(f.bus, false);
+      if (f.kind == FaultSpec::Kind::kSilent)
+        (f.joint == FaultSpec::kImuTarget ? emulator_->imu_faults()
+                                          : emulator_->joint_faults(f.joint))
+            .silent = false;
+    }
+  }
+}
+
+void SimulatedRobot::Step() noexcept {
+  ApplyFaults();
+  // actuators: saturation, then the first-order lag (1) and the rate limit
+  const double h = config_.timing.cycle_period_s;
+  bool all_enabled = true;
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const double limit = std::min(config_.joints[static_cast<std::size_t>(j)].torque_limit_Nm,
+                                  model_.limits[static_cast<std::size_t>(j)].effort_Nm);
+    all_enabled = all_enabled && emulator_->outputs_enabled(j);
+    const double u = std::clamp(emulator_->torque_setpoint_Nm(j), -limit, limit);
+    double d = alpha_ * (u - tau_applied_(j));
+    if (cfg_.actuator_rate_limit_Nm_s > 0) {
+      const double r = cfg_.actuator_rate_limit_Nm_s * h;
+      d = std::clamp(d, -r, r);
+    }
+    tau_applied_(j) += d;
+  }
+  if (holding_ && all_enabled) holding_ = false;
+  if (holding_) {
+    plant_->Reset(q_hold_, dynamics::VectorV::Zero());  // on the stand
+    ++counters_.held_steps;
+  } else {
+    plant_->Step(tau_applied_);
+  }
+  ++counters_.steps;
+  const double z = plant_->q()(2);
+  min_base_height_m_ = std::min(min_base_height_m_, z);
+  if (!fell_ && !holding_ && (z < cfg_.fall_height_m || plant_->BodyTouchesGround())) {
+    fell_ = true;
+    fell_at_s_ = time_s();
+  }
+  UpdateSensors();
+  if (observer_) observer_(*this);
+}
+
+void SimulatedRobot::UpdateSensors() noexcept {
+  const dynamics::VectorQ q = plant_->q();
+  const dynamics::VectorV v = plant_->v();
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    double qj = q(7 + j);
+    if (cfg_.encoder_noise_rad > 0) qj += cfg_.encoder_noise_rad * Gaussian();
+    double tau = tau_applied_(j);
+    if (cfg_.load_cell_noise_Nm > 0) tau += cfg_.load_cell_noise_Nm * Gaussian();
+    tau_measured_(j) = tau;
+    emulator_->SetJointState(j, qj, v(6 + j), tau);
+  }
+  ImuReading r;
+  if (holding_) {
+    // at rest on the stand: no rotation, the specific force is -g
+    const Eigen::Quaterniond quat(q(3), q(4), q(5), q(6));
+    r.specific_force_m_s2 = (quat.toRotationMatrix() * R_BF_).transpose() * (-model_.gravity_W);
+  } else {
+    r = plant_->Imu();
+  }
+  r.gyro_rad_s += cfg_.gyro_bias_rad_s;
+  r.specific_force_m_s2 += cfg_.accel_bias_m_s2;
+  if (cfg_.gyro_noise_rad_s > 0)
+    for (int i = 0; i < 3; ++i) r.gyro_rad_s(i) += cfg_.gyro_noise_rad_s * Gaussian();
+  if (cfg_.accel_noise_m_s2 > 0)
+    for (int i = 0; i < 3; ++i) r.specific_force_m_s2(i) += cfg_.accel_noise_m_s2 * Gaussian();
+  imu_reported_ = r;
+  emulator_->SetImu({r.gyro_rad_s(0), r.gyro_rad_s(1), r.gyro_rad_s(2)},
+                    {r.specific_force_m_s2(0), r.specific_force_m_s2(1), r.specific_force_m_s2(2)});
+}
+
+void SimulatedRobot::Poll(std::int64_t now_ns) noexcept {
+  emulator_->Poll(now_ns);
+  for (std::size_t b = 0; b < channels_.size(); ++b) counters_.syncs[b] = channels_[b]->syncs();
+}
+
+int SimulatedRobot::PollLockStep() noexcept {
+  Poll(time_ns());
+  int steps = 0;
+  for (;;) {
+    std::uint64_t lo = UINT64_MAX, hi = 0;
+    for (std::size_t b = 0; b < channels_.size(); ++b) {
+      lo = std::min(lo, counters_.syncs[b]);
+      hi = std::max(hi, counters_.syncs[b]);
+    }
+    // every bus saw SYNC k; or a bus fell kMaxSyncLead behind (the master gave up on it)
+    const std::uint64_t target = std::max(lo, hi > kMaxSyncLead ? hi - kMaxSyncLead : 0);
+    if (counters_.steps >= target) break;
+    if (lo <= counters_.steps) ++counters_.lockstep_forced;
+    Step();
+    ++steps;
+  }
+  return steps;
+}
+
+int SimulatedRobot::WaitAndPollLockStep(int timeout_ms) noexcept {
+  const int stepped = PollLockStep();
+  if (stepped > 0) return stepped;
+  std::array<pollfd, hal::kMaxBuses> fds{};
+  nfds_t n = 0;
+  for (const auto& c : channels_)
+    if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
+  if (n == 0) return 0;
+  (void)poll(fds.data(), n, timeout_ms);
+  return PollLockStep();
+}
+
+std::uint64_t SimulatedRobot::RunLockStep(const std::atomic<bool>& stop, double duration_s) {
+  const auto end_steps = duration_s > 0
+                             ? static_cast<std::uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(period_ns_)))
+                             : UINT64_MAX;
+  const std::uint64_t start = counters_.steps;
+  while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps)
+    (void)WaitAndPollLockStep(50);
+  return counters_.steps - start;
+}
+
+std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double duration_s) {
+  const int tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
+  if (tfd < 0) throw std::runtime_error("simulated robot: timerfd_create failed");
+  const std::int64_t t0 = MonotonicNs() + period_ns_;
+  itimerspec its{};
+  its.it_value = {static_cast<time_t>(t0 / 1'000'000'000), static_cast<long>(t0 % 1'000'000'000)};
+  its.it_interval = {0, static_cast<long>(period_ns_)};
+  if (timerfd_settime(tfd, TFD_TIMER_ABSTIME, &its, nullptr) != 0) {
+    close(tfd);
+    throw std::runtime_error("simulated robot: timerfd_settime failed");
+  }
+  std::array<pollfd, hal::kMaxBuses + 1> fds{};
+  nfds_t n = 0;
+  fds[n++] = {tfd, POLLIN, 0};
+  for (const auto& c : channels_)
+    if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
+  const auto end_steps = duration_s > 0
+                             ? static_cast<std::uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(period_ns_)))
+                             : UINT64_MAX;
+  const std::uint64_t start = counters_.steps;
+  while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps) {
+    // channels without an fd (loopback) are polled at least every period
+    if (poll(fds.data(), n, n > 1 ? 50 : 1) < 0 && errno != EINTR) break;
+    Poll(MonotonicNs());  // answer SYNCs with the latest state
+    std::uint64_t expirations = 0;
+    if (read(tfd, &expirations, sizeof expirations) == static_cast<ssize_t>(sizeof expirations) &&
+        expirations > 0) {
+      // a late wake catches up (at most 10 steps at once), counted as overruns
+      counters_.realtime_overruns += expirations - 1;
+      for (std::uint64_t i = 0; i < std::min<std::uint64_t>(expirations, 10); ++i) Step();
+    }
+  }
+  close(tfd);
+  return counters_.steps - start;
+}
+
+}  // namespace hyq::sim

@@ -1,0 +1,185 @@
+// The simulated HyQ of issue #8: the MuJoCo plant (tools/sim/plant.h) behind HyQ's devices (the
+// HAL's device Emulator) on any CAN channels, so that the unmodified servo daemon drives it like
+// the real robot (docs/simulation.md).
+//
+// Models, per 1 ms step h:
+//  - hydraulic actuator j: the board's set-point u (0 when its outputs are disabled) is clamped to
+//    the joint's torque limit, then the applied torque follows a first-order lag with time
+//    constant T, discretised exactly for a set-point held over the step (zero-order hold):
+//      tau[k+1] = tau[k] + (1 - exp(-h / T)) (u[k] - tau[k])                    (1)
+//    (T = 0: tau = u), optionally limited in rate: |tau[k+1] - tau[k]| <= rmax h.
+//  - encoders: the emulator reports counts through the HAL calibration, c = c0 + round(d q N/2pi),
+//    i.e. quantised to one encoder count (2 pi / 131072 = 47.9 urad with the default YAML); the
+//    velocity to 1 count/s. Optional Gaussian noise (rad) is added before the quantisation.
+//  - load cells / torque sensors: the applied joint torque tau plus Gaussian noise N(0, s^2)
+//    (N·m at the joint), reported as the sensor counts for that torque at the current angle.
+//  - IMU at model.imu (upside down on the trunk): MuJoCo's gyro and accelerometer at that site
+//    (angular velocity and specific force in the IMU frame, from cacc of mj_rnePostConstraint,
+//    i.e. including the contact forces of the step) plus bias and Gaussian noise.
+//  - hold: until every actuator board has its outputs enabled, the robot is held at its standing
+//    posture (the state is reset every step, as on its stand); the IMU reads rest.
+//  - faults at simulated times (FaultSpec): silent board, corrupt / dropped TPDOs, broken sensor,
+//    bus-off, EMCY.
+//
+// Lock-step (deterministic): PollLockStep() drains the channels through the emulator at simulated
+// time; the emulator answers each SYNC with the current state; when the SYNC of cycle k has been
+// received on every bus, the latest set-points go through (1) and the plant steps once. A bus
+// whose SYNCs stop while another is kMaxSyncLead SYNCs ahead no longer holds the others back.
+// Real time: Poll(now) answers SYNCs with the latest state, Step() advances the physics; the
+// caller (RunRealTime) steps on absolute CLOCK_MONOTONIC deadlines.
+//
+// Poll, PollLockStep and Step do not allocate (tests/hil/simulated_robot_test.cc, NoHeap).
+#pragma once
+
+#include <array>
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "dynamics/model.h"
+#include "hal/can_channel.h"
+#include "hal/emulator.h"
+#include "hal/hal_config.h"
+#include "tools/sim/plant.h"
+
+namespace hyq::sim {
+
+struct SimulatedRobotConfig {
+  PlantConfig plant;                      // timestep_s is taken from the HAL's cycle period
+  double actuator_tau_s = 0.005;          // T of eq. (1); 0 = ideal actuator
+  double actuator_rate_limit_Nm_s = 0.0;  // 0 = none
+  double encoder_noise_rad = 0.0;         // σ before quantisation
+  double load_cell_noise_Nm = 0.0;        // σ of the measured joint torque
+  double gyro_noise_rad_s = 0.0;          // σ per axis
+  double accel_noise_m_s2 = 0.0;          // σ per axis
+  Eigen::Vector3d gyro_bias_rad_s = Eigen::Vector3d::Zero();     // IMU frame
+  Eigen::Vector3d accel_bias_m_s2 = Eigen::Vector3d::Zero();     // IMU frame
+  bool hold = true;                       // hold at the standing posture until all enabled
+  std::uint64_t seed = 1;                 // sensor noise and the emulator's random drops
+  double fall_height_m = 0.3;             // base below this height counts as fallen
+};
+
+/// One injected fault. Targets: a joint (index 0..11) for silent, corrupt, drop, nan, emcy; the
+/// IMU (joint = kImuTarget) for silent, drop, corrupt, nan; a bus (index) for bus-off.
+struct FaultSpec {
+  enum class Kind : std::uint8_t { kSilent, kCorrupt, kDrop, kNan, kBusOff, kEmcy };
+  static constexpr int kImuTarget = -2;
+  double t_s = 0.0;
+  Kind kind = Kind::kSilent;
+  int joint = -1;
+  int bus = -1;
+  std::uint32_t count = 1;        // corrupt / drop: frames
+  double duration_s = 0.0;        // silent / bus-off: 0 = for good
+  std::uint16_t emcy_code = 0x1000;
+  std::string text;               // as given (reports)
+};
+const char* ToString(FaultSpec::Kind k) noexcept;
+
+/// Parses "T:KIND:TARGET[:ARG]": KIND silent|corrupt|drop|nan|bus-off|emcy; TARGET a device name
+/// of the configuration ("lf_kfe", "imu"), a joint name ("lf_kfe_joint") or, for bus-off, a bus
+/// name ("rh"); ARG: frames for corrupt/drop (default 1), seconds for silent/bus-off (default:
+/// for good), the EMCY code for emcy (default 0x1000, hex with 0x). Throws std::invalid_argument
+/// naming what was expected and what was found.
+FaultSpec ParseFaultSpec(const std::string& text, const hal::HalConfig& config);
+
+struct SimulatedRobotCounters {
+  std::uint64_t steps = 0;
+  std::uint64_t held_steps = 0;
+  std::uint64_t lockstep_forced = 0;     // steps taken because one bus fell kMaxSyncLead behind
+  std::uint64_t faults_injected = 0;
+  std::array<std::uint64_t, hal::kMaxBuses> syncs{};  // per bus, seen on the wire
+  std::uint64_t realtime_overruns = 0;  // timer periods that passed unanswered (real time)
+};
+
+class SimulatedRobot {
+ public:
+  static constexpr std::uint64_t kMaxSyncLead = 3;
+
+  /// channels[i] carries config.buses[i] (the device side); not owned, must outlive this.
+  /// Throws (ConfigError, PlantError) at configuration time.
+  SimulatedRobot(const dynamics::Model& model, const hal::HalConfig& config,
+                 std::span<hal::CanChannel* const> channels, const SimulatedRobotConfig& cfg);
+  ~SimulatedRobot();
+  SimulatedRobot(const SimulatedRobot&) = delete;
+  SimulatedRobot& operator=(const SimulatedRobot&) = delete;
+
+  void ScheduleFault(const FaultSpec& f);
+  /// Called at the end of every Step (truth recording, progress); set before running.
+  void SetStepObserver(std::function<void(const SimulatedRobot&)> observer) {
+    observer_ = std::move(observer);
+  }
+
+  // --- lock-step ------------------------------------------------------------------------------
+  /// Drains every channel (Emulator::Poll at the simulated time) and steps the physics once per
+  /// SYNC seen on every bus. Returns the steps taken. Never blocks.
+  int PollLockStep() noexcept;
+  /// Blocks in poll() on the channels' fds (at most timeout_ms) until something arrives, then
+  /// PollLockStep(). Returns the steps taken (0 on timeout). Channels without an fd: no wait.
+  int WaitAndPollLockStep(int timeout_ms) noexcept;
+
+  // --- real time ------------------------------------------------------------------------------
+  /// Answers whatever arrived (Emulator::Poll(now_ns)); SYNCs are counted, nothing steps.
+  void Poll(std::int64_t now_ns) noexcept;
+  /// One physics step with the latest set-points (actuator model, plant, sensors, faults).
+  void Step() noexcept;
+  /// Runs until `stop` or `duration_s` of simulated time (0: until stop): physics on absolute
+  /// CLOCK_MONOTONIC deadlines (timerfd, TFD_TIMER_ABSTIME) every period, SYNCs answered as they
+  /// arrive (poll on the channels and the timer). Returns the steps taken.
+  std::uint64_t RunRealTime(const std::atomic<bool>& stop, double duration_s);
+  /// Lock-step until `stop` or `duration_s` of simulated time (0: until stop).
+  std::uint64_t RunLockStep(const std::atomic<bool>& stop, double duration_s);
+
+  // --- state ----------------------------------------------------------------------------------
+  double time_s() const noexcept;  // simulated: steps x period
+  std::int64_t time_ns() const noexcept { return static_cast<std::int64_t>(counters_.steps) * period_ns_; }
+  bool holding() const noexcept { return holding_; }
+  bool fell() const noexcept { return fell_; }
+  double fell_at_s() const noexcept { return fell_at_s_; }
+  double min_base_height_m() const noexcept { return min_base_height_m_; }
+  const dynamics::VectorJ& applied_torque_Nm() const noexcept { return tau_applied_; }
+  const dynamics::VectorJ& measured_torque_Nm() const noexcept { return tau_measured_; }
+  const ImuReading& imu_reported() const noexcept { return imu_reported_; }
+  const SimulatedRobotCounters& counters() const noexcept { return counters_; }
+  const std::vector<FaultSpec>& faults() const noexcept { return faults_; }
+  Plant& plant() noexcept { return *plant_; }
+  const Plant& plant() const noexcept { return *plant_; }
+  hal::Emulator& emulator() noexcept { return *emulator_; }
+  std::size_t num_buses() const noexcept { return channels_.size(); }
+
+ private:
+  class SyncCounter;
+  void ApplyFaults() noexcept;
+  void UpdateSensors() noexcept;
+  double Gaussian() noexcept;
+
+  const dynamics::Model& model_;
+  hal::HalConfig config_;
+  SimulatedRobotConfig cfg_;
+  std::int64_t period_ns_;
+  double alpha_;  // 1 - exp(-h / T)
+  std::vector<std::unique_ptr<SyncCounter>> channels_;
+  std::unique_ptr<Plant> plant_;
+  std::unique_ptr<hal::Emulator> emulator_;
+  dynamics::VectorQ q_hold_;
+  dynamics::VectorJ tau_applied_ = dynamics::VectorJ::Zero();
+  dynamics::VectorJ tau_measured_ = dynamics::VectorJ::Zero();
+  ImuReading imu_reported_;
+  Eigen::Matrix3d R_BF_;  // IMU in the trunk
+  std::vector<FaultSpec> faults_;
+  std::vector<std::uint8_t> fault_state_;  // 0 pending, 1 active, 2 done
+  SimulatedRobotCounters counters_;
+  bool holding_;
+  bool fell_ = false;
+  double fell_at_s_ = 0.0;
+  std::function<void(const SimulatedRobot&)> observer_;
+  double min_base_height_m_;
+  std::uint64_t rng_;
+  double spare_gaussian_ = 0.0;
+  bool has_spare_ = false;
+};
+
+}  // namespace hyq::sim
