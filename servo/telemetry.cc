@@ -36,6 +36,7 @@ const char* ToString(ServoCommand::Kind k) noexcept {
     case ServoCommand::Kind::kSetMu: return "mu";
     case ServoCommand::Kind::kSetController: return "controller";
     case ServoCommand::Kind::kSetGains: return "gains";
+    case ServoCommand::Kind::kRejected: return "rejected";
   }
   return "unknown";
 }
@@ -116,6 +117,7 @@ struct Telemetry::Impl {
   bool Validate(const hyq_lcm::lcmt_hyq_command& msg, ServoCommand* out, char* why,
                 std::size_t why_size) const;
   void Reject(std::int64_t sequence, const char* why);
+  void TellServoInvalid(std::int64_t sequence);
 };
 
 Telemetry::Telemetry(const TelemetryConfig& config, const CommandChannelConfig& commands,
@@ -422,6 +424,15 @@ void Telemetry::Impl::PublishEvent(const SafetyEvent& e) {
 
 // ---- command channel (telemetry thread) ----
 
+// An invalid command (not one refused for its rate or a full queue) also reaches the servo
+// thread as kRejected: a sender that emits garbage is a fault (safety.damp_on_bad_command).
+void Telemetry::Impl::TellServoInvalid(std::int64_t sequence) {
+  ServoCommand c;
+  c.kind = ServoCommand::Kind::kRejected;
+  c.sequence = static_cast<std::uint64_t>(sequence < 0 ? 0 : sequence);
+  (void)commands.TryPush(c);
+}
+
 void Telemetry::Impl::Reject(std::int64_t sequence, const char* why) {
   commands_rejected.fetch_add(1, std::memory_order_relaxed);
   SafetyEvent e;
@@ -500,11 +511,13 @@ void Telemetry::Impl::OnCommand(const lcm::ReceiveBuffer* rbuf, const std::strin
     std::snprintf(why, sizeof why, "message: expected lcmt_hyq_command, found %u undecodable bytes",
                   rbuf->data_size);
     Reject(-1, why);
+    TellServoInvalid(-1);
     return;
   }
   ServoCommand command;
   if (!Validate(msg, &command, why, sizeof why)) {
     Reject(msg.sequence, why);
+    TellServoInvalid(msg.sequence);
     return;
   }
   // rate limit: accepted commands at least 1 / max_rate_hz apart

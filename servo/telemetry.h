@@ -63,7 +63,7 @@ struct TelemetryStats {
 /// "enable", "disable", "damp", "ack", "mu", "controller", "gains".
 const char* ToString(ServoCommand::Kind k) noexcept;
 
-class Telemetry {
+class Telemetry : public TelemetrySink {
  public:
   /// Replaces lcm publish for tests (e.g. one that blocks, to stall the publisher). Returns false
   /// on failure (counted as publish_failures). Called only on the telemetry thread.
@@ -77,7 +77,7 @@ class Telemetry {
   ///         controller names, non-positive rate).
   Telemetry(const TelemetryConfig& config, const CommandChannelConfig& commands = {},
             PublishFn publish = nullptr);
-  ~Telemetry();  // Stop()
+  ~Telemetry() override;  // Stop()
   Telemetry(const Telemetry&) = delete;
   Telemetry& operator=(const Telemetry&) = delete;
 
@@ -89,11 +89,11 @@ class Telemetry {
 
   // ---- servo thread: wait-free, noexcept, no allocation ----
   /// Queues one cycle's snapshot; false (and counted as dropped) when the queue is full.
-  bool Push(const TelemetrySnapshot& snapshot) noexcept;
+  bool Push(const TelemetrySnapshot& snapshot) noexcept override;
   /// Queues an event on its own queue; false (and counted as dropped) when that is full.
-  bool PushEvent(const SafetyEvent& event) noexcept;
+  bool PushEvent(const SafetyEvent& event) noexcept override;
   /// Takes the oldest validated command; false when there is none.
-  bool PopCommand(ServoCommand* command) noexcept;
+  bool PopCommand(ServoCommand* command) noexcept override;
 
   // ---- any thread ----
   TelemetryStats stats() const noexcept;

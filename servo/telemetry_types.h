@@ -144,4 +144,14 @@ struct ServoCommand {
   std::uint64_t sequence = 0;                     // the sender's sequence number (echoed in events)
 };
 
+/// Where snapshots and events go and commands come from (the LCM telemetry thread's rings, or a
+/// test double). Every call is made from the servo thread and must be wait-free.
+class TelemetrySink {
+ public:
+  virtual ~TelemetrySink() = default;
+  virtual bool Push(const TelemetrySnapshot& s) noexcept = 0;
+  virtual bool PushEvent(const SafetyEvent& e) noexcept = 0;
+  virtual bool PopCommand(ServoCommand* c) noexcept = 0;
+};
+
 }  // namespace hyq::servo

@@ -491,7 +491,20 @@ TEST_F(CommandChannel, ValidatesAndRateLimits) {
   e = NextRejection();
   EXPECT_NE(e.detail.find("kind: expected 0..6, found 42"), std::string::npos) << e.detail;
 
-  // too fast: two valid commands back to back, the second is refused
+  // every invalid command so far also reached the servo side as kRejected (so that the servo can
+  // go to its safe state), in order, with its sequence number
+  {
+    std::uint64_t invalid = 0;
+    while (telemetry.PopCommand(&got)) {
+      EXPECT_EQ(got.kind, ServoCommand::Kind::kRejected);
+      ++invalid;
+    }
+    EXPECT_EQ(invalid, telemetry.stats().commands_rejected);
+    EXPECT_GE(invalid, 5u);
+  }
+
+  // too fast: two valid commands back to back, the second is refused (refused for its rate:
+  // not an invalid command, so nothing reaches the servo)
   std::this_thread::sleep_for(300ms);
   ctrl.sequence = 8;
   ctrl.controller = "pid";

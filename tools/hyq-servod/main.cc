@@ -26,6 +26,7 @@
 #include "hal/hal.h"
 #include "servo/servo_loop.h"
 #include "servo/servo_runner.h"
+#include "servo/telemetry.h"
 
 namespace {
 
@@ -266,7 +267,7 @@ int main(int argc, char** argv) {
   std::vector<hyq::servo::LockstepChannel*> lockstep;
   std::vector<hyq::hal::CanChannel*> channels;
   std::unique_ptr<hyq::hal::Hal> hal;
-  std::unique_ptr<hyq::servo::TelemetrySink> telemetry;  // TODO(lcm merge)
+  std::unique_ptr<hyq::servo::Telemetry> telemetry;
   std::unique_ptr<hyq::servo::ServoLoop> loop;
   try {
     for (const auto& b : config.hal.buses) {
@@ -280,6 +281,20 @@ int main(int argc, char** argv) {
       owned.push_back(std::move(ch));
     }
     hal = std::make_unique<hyq::hal::Hal>(config.hal, channels);
+    if (config.telemetry.enabled) {
+      hyq::servo::TelemetryConfig tc;
+      tc.lcm_url = config.telemetry.lcm_url;
+      tc.channel_prefix = config.telemetry.channel_prefix;
+      const auto every = static_cast<std::uint32_t>(config.telemetry.state_decimation);
+      tc.joint_state_every = tc.joint_torque_every = tc.base_state_every = tc.contact_every = every;
+      tc.timing_every = static_cast<std::uint32_t>(config.telemetry.timing_decimation);
+      tc.health_every = static_cast<std::uint32_t>(config.telemetry.health_decimation);
+      hyq::servo::CommandChannelConfig cc;
+      cc.enabled = config.command.enabled;
+      cc.channel = config.command.channel;
+      cc.max_rate_hz = config.command.max_rate_hz;
+      telemetry = std::make_unique<hyq::servo::Telemetry>(tc, cc);
+    }
     loop = std::make_unique<hyq::servo::ServoLoop>(config, *model, *hal, telemetry.get());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hyq-servod: start-up failed: %s\n", e.what());
@@ -292,6 +307,7 @@ int main(int argc, char** argv) {
                  telemetry ? config.telemetry.lcm_url.c_str() : "no telemetry",
                  config.hal.buses.size());
 
+  if (telemetry) telemetry->Start();
   std::int64_t start_ns = 0;
   try {
     start_ns = hyq::servo::BringUp(*hal, config, lockstep);
@@ -343,6 +359,7 @@ int main(int argc, char** argv) {
     }
   }
   servo.join();
+  if (telemetry) telemetry->Stop();  // publishes what is still queued
   const double wall_s = 1e-9 * static_cast<double>(hyq::servo::MonotonicNs() - wall0);
 
   const nlohmann::json summary = Summary(*loop, config, wall_s);
