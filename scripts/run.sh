@@ -1,10 +1,15 @@
 #!/usr/bin/env bash
-# The main job: installs what is missing, builds the release preset and runs the demo.
-# Until the servo daemon and the simulated HyQ exist this is the dynamics demo.
-#   scripts/run.sh [demo arguments...]
+# The main job: installs what is missing, builds, then runs the daemon (hyq-servod) driving the
+# simulated HyQ (hyq-sim) over virtual CAN in lock-step, in a private network namespace: it
+# stands up, trots on mu = 0.1 with the two-stage ID, stops cleanly and prints a summary. The LCM
+# log (hil-run/telemetry.lcmlog) is kept for lcm-spy (hyq-spy, lcm-logplayer-gui) or
+#   build/release/tools/hyq-lcm-export/hyq-lcm-export hil-run/telemetry.lcmlog hil-run/csv --plot
+#
+#   scripts/run.sh [--duration S] [hil.sh options...]      (default 5 s of trot)
 set -euo pipefail
 cd "$(dirname "$0")/.."
+case "${1:-}" in -h|--help) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;; esac
 scripts/bootstrap.sh
-cmake --preset release
+cmake --preset release >/dev/null
 cmake --build --preset release
-exec build/release/tools/hyq-dynamics-demo/hyq-dynamics-demo "$@"
+exec scripts/hil.sh --out hil-run "$@"

@@ -69,6 +69,13 @@ void ServoLoop::ApplyCommand(const ServoCommand& c, std::int64_t now_ns) noexcep
   char d[96];
   switch (c.kind) {
     case ServoCommand::Kind::kEnable:
+      if (est_status_ != EstimatorStatus::kOk) {
+        std::snprintf(d, sizeof d, "enable refused: the state estimate is not ready (%s)",
+                      ToString(est_status_));
+        safety_.Note(EventReason::kCommandRejected, d);
+        ++stats_.commands_rejected;
+        return;
+      }
       if (safety_.Enable(EventReason::kEnableCommand)) EnterActive();
       break;
     case ServoCommand::Kind::kDisable:
@@ -205,8 +212,9 @@ void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexc
   // operator commands (a few per cycle at most), then a stop request
   ServoCommand cmd;
   for (int i = 0; i < 4 && sink_ != nullptr && sink_->PopCommand(&cmd); ++i) ApplyCommand(cmd, now_ns);
+  // auto-enable once, as soon as the state estimate is ready (it needs an IMU reading)
   if (config_.auto_enable && safety_.mode() == ServoMode::kStandby && !safety_.stop_requested() &&
-      stats_.active_cycles == 0) {
+      stats_.active_cycles == 0 && est_status_ == EstimatorStatus::kOk) {
     if (safety_.Enable(EventReason::kEnableCommand)) EnterActive();
   }
   if (stop_requested_.load(std::memory_order_relaxed)) safety_.Stop();
@@ -317,6 +325,8 @@ void ServoLoop::DrainEvents() noexcept {
   SafetyEvent e;
   while (safety_.Take(&e)) {
     ++by_reason_[static_cast<std::size_t>(e.reason) & 31u];
+    if (num_first_events_ < first_events_.size()) first_events_[num_first_events_++] = e;
+    last_event_ = e;
     if (sink_ != nullptr && !sink_->PushEvent(e)) ++stats_.event_drops;
   }
 }

@@ -7,6 +7,7 @@
 #include <atomic>
 #include <cstdint>
 #include <memory>
+#include <span>
 
 #include "dynamics/cycle_dynamics.h"
 #include "hal/hal.h"
@@ -71,6 +72,11 @@ class ServoLoop {
   const Controller& controller() const noexcept { return *controller_; }
   const StateEstimator& estimator() const noexcept { return estimator_; }
   std::uint64_t events() const noexcept { return safety_.events(); }
+  /// The run's first events (up to 32) and last event, for the summary.
+  std::span<const SafetyEvent> first_events() const noexcept {
+    return {first_events_.data(), num_first_events_};
+  }
+  const SafetyEvent& last_event() const noexcept { return last_event_; }
   /// Events of the run by reason (index: EventReason).
   const std::array<std::uint32_t, 32>& events_by_reason() const noexcept { return by_reason_; }
 
@@ -132,6 +138,9 @@ class ServoLoop {
   TelemetrySnapshot snap_;
   CycleTiming timing_;
   std::array<std::uint32_t, 32> by_reason_{};
+  std::array<SafetyEvent, 32> first_events_{};
+  std::size_t num_first_events_ = 0;
+  SafetyEvent last_event_;
 };
 
 }  // namespace hyq::servo

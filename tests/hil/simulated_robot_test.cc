@@ -183,7 +183,7 @@ TEST(SimulatedRobot, ImuAtRestReadsGravityUpsideDownAndNoRotation) {
   EXPECT_FALSE(free.robot->fell());
 }
 
-TEST(SimulatedRobot, HoldsOnTheStandUntilEveryBoardIsEnabled) {
+TEST(SimulatedRobot, HoldsOnTheStandUntilEveryBoardIsEnabledAndCommanded) {
   LoopbackRig rig;
   rig.BringUp(DeviceState::kSafeOp);
   for (int i = 0; i < 500; ++i) (void)rig.Cycle();
@@ -192,6 +192,10 @@ TEST(SimulatedRobot, HoldsOnTheStandUntilEveryBoardIsEnabled) {
       << (rig.robot->plant().q() - HilModel().StandingQ()).transpose();
   hal::Hal& hal = *rig.hal;
   hal.RequestState(DeviceState::kOp, rig.now());
+  // enabled at 0 N·m (a daemon in STANDBY): still on the stand
+  for (int i = 0; i < 50; ++i) (void)rig.Cycle();
+  ASSERT_TRUE(hal.AllIn(DeviceState::kOp)) << hal.BringUpReport(rig.now());
+  EXPECT_TRUE(rig.robot->holding());
   int released_after = -1;
   for (int i = 0; i < 100 && released_after < 0; ++i) {
     (void)rig.Cycle(Pd());

@@ -228,6 +228,20 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
     if (loop.events_by_reason()[r] != 0)
       ev[hyq::servo::ToString(static_cast<hyq::servo::EventReason>(r))] = loop.events_by_reason()[r];
   j["events"] = ev;
+  nlohmann::json log = nlohmann::json::array();
+  auto one = [](const hyq::servo::SafetyEvent& e) {
+    return nlohmann::json{{"cycle", e.cycle},
+                          {"time_s", 1e-9 * static_cast<double>(e.time_ns)},
+                          {"from", hyq::servo::ToString(e.from)},
+                          {"to", hyq::servo::ToString(e.to)},
+                          {"reason", hyq::servo::ToString(e.reason)},
+                          {"joint", e.joint},
+                          {"bus", e.bus},
+                          {"detail", std::string(e.detail.data())}};
+  };
+  for (const auto& e : loop.first_events()) log.push_back(one(e));
+  if (loop.events() > loop.first_events().size()) log.push_back(one(loop.last_event()));
+  j["event_log"] = log;
   return j;
 }
 
@@ -271,7 +285,7 @@ int main(int argc, char** argv) {
   std::unique_ptr<hyq::servo::ServoLoop> loop;
   try {
     for (const auto& b : config.hal.buses) {
-      auto ch = hyq::drivers::OpenChannel(b.interface);
+      auto ch = hyq::drivers::OpenChannel(hyq::drivers::SpecForInterface(b.interface));
       if (config.clock == hyq::servo::ClockMode::kLockstep) {
         auto ls = std::make_unique<hyq::servo::LockstepChannel>(std::move(ch));
         lockstep.push_back(ls.get());

@@ -255,11 +255,13 @@ void SimulatedRobot::Step() noexcept {
   ApplyFaults();
   // actuators: saturation, then the first-order lag (1) and the rate limit
   const double h = config_.timing.cycle_period_s;
-  bool all_enabled = true;
+  bool all_enabled = true, commanding = false;
+  constexpr double kReleaseTorqueNm = 0.0;  // any non-zero set-point (1 mN·m resolution)
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     const double limit = std::min(config_.joints[static_cast<std::size_t>(j)].torque_limit_Nm,
                                   model_.limits[static_cast<std::size_t>(j)].effort_Nm);
     all_enabled = all_enabled && emulator_->outputs_enabled(j);
+    commanding = commanding || std::abs(emulator_->torque_setpoint_Nm(j)) > kReleaseTorqueNm;
     const double u = std::clamp(emulator_->torque_setpoint_Nm(j), -limit, limit);
     double d = alpha_ * (u - tau_applied_(j));
     if (cfg_.actuator_rate_limit_Nm_s > 0) {
@@ -268,7 +270,9 @@ void SimulatedRobot::Step() noexcept {
     }
     tau_applied_(j) += d;
   }
-  if (holding_ && all_enabled) holding_ = false;
+  // off the stand once every board is enabled AND the controller commands torque: a daemon in
+  // STANDBY (enabled, 0 N·m) keeps the robot on its stand, as an operator would
+  if (holding_ && all_enabled && commanding) holding_ = false;
   if (holding_) {
     plant_->Reset(q_hold_, dynamics::VectorV::Zero());  // on the stand
     ++counters_.held_steps;

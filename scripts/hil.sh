@@ -1,0 +1,120 @@
+#!/usr/bin/env bash
+# Hardware-in-the-loop run: hyq-sim (MuJoCo HyQ behind its boards) and hyq-servod (the daemon,
+# unmodified) on four virtual CAN buses, with lcm-logger recording the telemetry, in a private
+# network namespace so that nothing leaves the machine. Prints a summary; keeps everything in OUT.
+#
+#   scripts/hil.sh [--out DIR] [--duration S] [--reference trot|figure_eight|stand]
+#                  [--controller two_stage|stage1|noslip|pid] [--mu MU] [--clock lockstep|realtime]
+#                  [--fault T:KIND:TARGET[:ARG]]... [--sim-arg ARG]... [--servod-arg ARG]...
+#                  [--build DIR] [--no-logger] [--candump] [--quiet]
+#
+# Defaults: 5 s of trot on mu = 0.1 with the two-stage ID, lock-step, OUT = hil-run/.
+# Exit status: the daemon's (0 controlled stop, 3 stopped in FAULT), 4 when the robot fell.
+set -euo pipefail
+here="$(cd "$(dirname "$0")/.." && pwd)"
+
+out=hil-run duration=5 reference=trot controller=two_stage mu=0.1 clock=lockstep
+build="$here/build/release" logger=1 candump=0 quiet=0
+faults=() sim_args=() servod_args=()
+usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
+while (($#)); do
+  case "$1" in
+    --out) out="$2"; shift ;;
+    --duration) duration="$2"; shift ;;
+    --reference) reference="$2"; shift ;;
+    --controller) controller="$2"; shift ;;
+    --mu) mu="$2"; shift ;;
+    --clock) clock="$2"; shift ;;
+    --fault) faults+=(--fault "$2"); shift ;;
+    --sim-arg) sim_args+=("$2"); shift ;;
+    --servod-arg) servod_args+=("$2"); shift ;;
+    --build) build="$2"; shift ;;
+    --no-logger) logger=0 ;;
+    --candump) candump=1 ;;
+    --quiet) quiet=1 ;;
+    -h|--help) usage 0 ;;
+    *) echo "hil.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
+  esac
+  shift
+done
+[[ "$out" = /* ]] || out="$PWD/$out"
+
+# a private network namespace (root: unshare -n; otherwise a user namespace too)
+if [[ -z "${HYQ_HIL_NETNS:-}" ]]; then
+  ns=(unshare -n)
+  ((EUID == 0)) || ns=(unshare -rn)
+  exec "${ns[@]}" env HYQ_HIL_NETNS=1 "$0" --out "$out" --duration "$duration" \
+    --reference "$reference" --controller "$controller" --mu "$mu" --clock "$clock" \
+    --build "$build" "${faults[@]}" $( ((logger)) || echo --no-logger) \
+    $( ((candump)) && echo --candump) $( ((quiet)) && echo --quiet) \
+    "${sim_args[@]/#/--sim-arg=}" "${servod_args[@]/#/--servod-arg=}"
+fi
+ip link set lo up
+ip route add 224.0.0.0/4 dev lo 2>/dev/null || true
+
+sim="$build/tools/hyq-sim/hyq-sim"
+servod="$build/tools/hyq-servod/hyq-servod"
+for b in "$sim" "$servod"; do
+  [[ -x "$b" ]] || { echo "hil.sh: $b not built (cmake --build --preset release)" >&2; exit 1; }
+done
+mkdir -p "$out"
+rm -f "$out"/*.json "$out"/*.csv "$out"/telemetry.lcmlog "$out"/*.log
+url='udpm://239.255.76.67:7667?ttl=0'
+pids=()
+cleanup() { for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
+trap cleanup EXIT
+
+if ((logger)); then
+  lcm-logger --lcm-url="$url" --quiet "$out/telemetry.lcmlog" >"$out/lcm-logger.log" 2>&1 &
+  pids+=($!)
+fi
+if ((candump)); then
+  /usr/bin/python3 "$here/tests/hil/python_can_logger.py" "$out/candump" >"$out/python-can.log" 2>&1 &
+  pids+=($!)
+fi
+"$sim" --mode "$clock" --mu "$mu" --summary "$out/sim.json" --truth "$out/truth.csv" --quiet \
+  "${faults[@]}" "${sim_args[@]}" 2>"$out/sim.log" &
+sim_pid=$!
+sleep 0.2
+((quiet)) && q=(--quiet) || q=()
+set +e
+"$servod" --config "$here/config/hyq_servo_sim.yaml" --clock "$clock" --auto-enable --reference "$reference" --controller "$controller" \
+  --mu "$mu" --duration "$duration" --exit-on-fault --summary "$out/servod.json" \
+  --lcm-url "$url" "${q[@]}" "${servod_args[@]}" 2>"$out/servod.log"
+servod_rc=$?
+set -e
+kill -TERM "$sim_pid" 2>/dev/null || true
+wait "$sim_pid" 2>/dev/null || true
+sleep 0.2
+cleanup
+trap - EXIT
+
+/usr/bin/python3 - "$out" "$servod_rc" <<'PY'
+import json, sys, os
+out, rc = sys.argv[1], int(sys.argv[2])
+s = json.load(open(os.path.join(out, "servod.json")))
+sim = json.load(open(os.path.join(out, "sim.json"))) if os.path.exists(os.path.join(out, "sim.json")) else {}
+# the trot is judged while the daemon was ACTIVE: after its controlled stop (damping, then zero
+# torque) the robot sits down, which is the point of the stop, not a fall
+t_stop = sim.get("released_at_s", 0.0) + s["active_s"]
+fell = bool(sim.get("fell")) and sim.get("fell_at_s", 0.0) < t_stop - 1e-9
+print(f"HIL run ({s['controller']}, {s['clock']}): {s['active_s']:.2f} s active, final mode {s['final_mode']}, daemon exit {rc}")
+print(f"  tracking error   mean {s['tracking_error_mean_rad']:.4f} rad, max {s['tracking_error_max_rad']:.4f} rad")
+print(f"  QP solve time    mean {s['qp_time_mean_us']:.1f} us, max {s['qp_time_max_us']:.1f} us; fallbacks {s['controller_fallbacks']}")
+c, w = s["cycle_time"], s["wakeup_latency"]
+print(f"  cycle time       p50 {c['p50_us']:.0f} us, p99 {c['p99_us']:.0f} us, p99.9 {c['p999_us']:.0f} us, max {c['max_us']:.0f} us")
+if s["clock"] == "realtime":
+    print(f"  wake-up latency  p50 {w['p50_us']:.0f} us, p99 {w['p99_us']:.0f} us, max {w['max_us']:.0f} us")
+print(f"  deadline misses  {s['deadline_misses']} (max {s['max_consecutive_misses']} in a row), skipped {s['skipped_cycles']}")
+print(f"  events           {', '.join(f'{k} {v}' for k, v in s['events'].items()) or 'none'}")
+if sim:
+    after = f", sat down {sim['fell_at_s']:.2f} s after the stop began" if sim.get("fell") and not fell else ""
+    print(f"  robot            {'FELL at %.2f s' % sim['fell_at_s'] if fell else 'did not fall while active'}{after}; "
+          f"{sim.get('simulated_time_s', 0):.2f} s simulated at {sim.get('speed', 0):.1f}x real time")
+print(f"  files            {out}: servod.json sim.json truth.csv" + (" telemetry.lcmlog" if os.path.exists(os.path.join(out, 'telemetry.lcmlog')) else ""))
+json.dump({"fell_while_active": fell, "t_stop_s": t_stop}, open(os.path.join(out, "hil.json"), "w"))
+sys.exit(4 if fell else 0)
+PY
+py_rc=$?
+((servod_rc != 0)) && exit "$servod_rc"
+exit "$py_rc"
