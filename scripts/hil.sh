@@ -108,7 +108,7 @@ if s["clock"] == "realtime":
 print(f"  deadline misses  {s['deadline_misses']} (max {s['max_consecutive_misses']} in a row), skipped {s['skipped_cycles']}")
 print(f"  events           {', '.join(f'{k} {v}' for k, v in s['events'].items()) or 'none'}")
 if sim:
-    after = f", sat down {sim['fell_at_s']:.2f} s after the stop began" if sim.get("fell") and not fell else ""
+    after = f" (it sat down at {sim['fell_at_s']:.2f} s, after the stop began)" if sim.get("fell") and not fell else ""
     print(f"  robot            {'FELL at %.2f s' % sim['fell_at_s'] if fell else 'did not fall while active'}{after}; "
           f"{sim.get('simulated_time_s', 0):.2f} s simulated at {sim.get('speed', 0):.1f}x real time")
 print(f"  files            {out}: servod.json sim.json truth.csv" + (" telemetry.lcmlog" if os.path.exists(os.path.join(out, 'telemetry.lcmlog')) else ""))
