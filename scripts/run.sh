@@ -9,7 +9,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/.."
 case "${1:-}" in -h|--help) sed -n '2,9p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;; esac
+preset="${HYQ_PRESET:-release}"   # the test suite runs it on its own (ci) build
 scripts/bootstrap.sh
-cmake --preset release >/dev/null
-cmake --build --preset release
-exec scripts/hil.sh --out hil-run "$@"
+cmake --preset "$preset" >/dev/null
+cmake --build --preset "$preset"
+exec scripts/hil.sh --build "build/$preset" --out hil-run "$@"

@@ -15,6 +15,14 @@ std::int64_t NowNs() noexcept {
   return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
 }
 
+// Every device in PRE-OP or below (a lost device is in INIT): the stop is complete.
+bool AllDown(const hal::Hal& hal) noexcept {
+  for (std::size_t b = 0; b < hal.num_buses(); ++b)
+    for (const auto& d : hal.bus(b).devices())
+      if (d.state > hal::DeviceState::kPreOp) return false;
+  return true;
+}
+
 Reference MakeReference(const ServoConfig& c, const dynamics::Model& m) {
   switch (c.reference) {
     case Reference::Kind::kTrot: return Reference::Trot(m, c.trot);
@@ -258,7 +266,7 @@ void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexc
   for (int j = 0; j < dynamics::kNumJoints; ++j)
     hal_.image().commands[static_cast<std::size_t>(j)].torque_Nm = tau_(j);
   if (m == ServoMode::kStopped &&
-      (hal_.AllIn(hal::DeviceState::kPreOp) ||
+      (AllDown(hal_) ||
        static_cast<double>(cycle_ - stop_cycle_) * dt_ > config_.hal.timing.state_timeout_s))
     finished_ = true;
   const std::int64_t t5 = NowNs();

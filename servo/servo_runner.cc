@@ -8,6 +8,7 @@
 #include <sys/resource.h>
 #include <time.h>
 
+#include <algorithm>
 #include <cstring>
 
 #include "hal/protocol.h"
@@ -130,7 +131,8 @@ bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channe
   std::size_t nfds = 0;
   for (LockstepChannel* c : channels)
     if (c->poll_fd() >= 0 && nfds < fds.size()) fds[nfds++] = {c->poll_fd(), POLLIN, 0};
-  const std::int64_t end = MonotonicNs() + timeout_ns;
+  // nothing owed (devices below SAFE-OP): only a moment for NMT answers and heartbeats
+  const std::int64_t end = MonotonicNs() + (expected == 0 ? std::min<std::int64_t>(timeout_ns, 1'000'000) : timeout_ns);
   for (;;) {
     int got = 0;
     for (LockstepChannel* c : channels) got += c->Pump();
@@ -180,13 +182,15 @@ void RunLockstep(ServoLoop& loop, const hal::Hal& hal, const ServoConfig& config
                  std::span<LockstepChannel* const> channels, std::int64_t start_ns) noexcept {
   const auto period = static_cast<std::int64_t>(config.period_s() * 1e9);
   std::int64_t now = start_ns;
-  bool last_complete = true;
+  // a device that stopped answering would make every cycle wait the full timeout: after a cycle
+  // came up short, wait only briefly for the next thousand cycles
+  int short_waits = 0;
   while (!loop.finished()) {
     now += period;
     loop.Cycle(now, 0);
-    // a device that stopped answering would make every cycle wait the full timeout: once a
-    // cycle came up short, wait only briefly until the answers are complete again
-    last_complete = WaitForInputs(hal, channels, last_complete ? 200'000'000 : 2'000'000);
+    const bool complete = WaitForInputs(hal, channels, short_waits > 0 ? 2'000'000 : 200'000'000);
+    if (!complete) short_waits = 1000;
+    else if (short_waits > 0) --short_waits;
   }
 }
 
