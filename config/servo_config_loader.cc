@@ -294,7 +294,11 @@ servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
   c.hal_file = Resolve(base_dir, r.String(robot, "robot", "hal"));
 
   const YAML::Node loop = Section(r, root, "loop");
-  r.Keys(loop, "loop", {"rate_hz", "clock", "duration_s"});
+  r.Keys(loop, "loop", {"rate_hz", "clock", "duration_s", "lockstep_timeout_s",
+                        "lockstep_short_timeout_s"});
+  c.lockstep_timeout_s = Bounded(r, loop, "loop", "lockstep_timeout_s", c.lockstep_timeout_s, 1e-3, 60.0);
+  c.lockstep_short_timeout_s = Bounded(r, loop, "loop", "lockstep_short_timeout_s",
+                                       c.lockstep_short_timeout_s, 1e-4, 60.0);
   c.rate_hz = Bounded(r, loop, "loop", "rate_hz", c.rate_hz, 50.0, 10000.0);
   if (loop["clock"].IsDefined())
     c.clock = r.OneOf(loop, "loop", "clock", {"realtime", "lockstep"}) == "lockstep"

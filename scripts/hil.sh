@@ -6,15 +6,16 @@
 #   scripts/hil.sh [--out DIR] [--duration S] [--reference trot|figure_eight|stand]
 #                  [--controller two_stage|stage1|noslip|pid] [--mu MU] [--clock lockstep|realtime]
 #                  [--fault T:KIND:TARGET[:ARG]]... [--sim-arg ARG]... [--servod-arg ARG]...
-#                  [--build DIR] [--no-logger] [--candump] [--quiet]
+#                  [--build DIR] [--no-logger] [--candump] [--sigterm-after S] [--quiet]
 #
+# --sigterm-after S: SIGTERM to the daemon after S wall seconds (with --duration 0: run until then).
 # Defaults: 5 s of trot on mu = 0.1 with the two-stage ID, lock-step, OUT = hil-run/.
 # Exit status: the daemon's (0 controlled stop, 3 stopped in FAULT), 4 when the robot fell.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 
 out=hil-run duration=5 reference=trot controller=two_stage mu=0.1 clock=lockstep
-build="$here/build/release" logger=1 candump=0 quiet=0
+build="$here/build/release" logger=1 candump=0 quiet=0 sigterm_after=
 faults=() sim_args=() servod_args=()
 usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
 while (($#)); do
@@ -30,6 +31,7 @@ while (($#)); do
     --servod-arg) servod_args+=("$2"); shift ;;
     --build) build="$2"; shift ;;
     --no-logger) logger=0 ;;
+    --sigterm-after) sigterm_after="$2"; shift ;;
     --candump) candump=1 ;;
     --quiet) quiet=1 ;;
     -h|--help) usage 0 ;;
@@ -46,6 +48,7 @@ if [[ -z "${HYQ_HIL_NETNS:-}" ]]; then
   exec "${ns[@]}" env HYQ_HIL_NETNS=1 "$0" --out "$out" --duration "$duration" \
     --reference "$reference" --controller "$controller" --mu "$mu" --clock "$clock" \
     --build "$build" "${faults[@]}" $( ((logger)) || echo --no-logger) \
+    ${sigterm_after:+--sigterm-after "$sigterm_after"} \
     $( ((candump)) && echo --candump) $( ((quiet)) && echo --quiet) \
     "${sim_args[@]/#/--sim-arg=}" "${servod_args[@]/#/--servod-arg=}"
 fi
@@ -80,7 +83,13 @@ sleep 0.2
 set +e
 "$servod" --config "$here/config/hyq_servo_sim.yaml" --clock "$clock" --auto-enable --reference "$reference" --controller "$controller" \
   --mu "$mu" --duration "$duration" --exit-on-fault --summary "$out/servod.json" \
-  --lcm-url "$url" "${q[@]}" "${servod_args[@]}" 2>"$out/servod.log"
+  --lcm-url "$url" "${q[@]}" "${servod_args[@]}" 2>"$out/servod.log" &
+servod_pid=$!
+if [[ -n "$sigterm_after" ]]; then  # the operator's Ctrl-C / systemctl stop
+  sleep "$sigterm_after"
+  kill -TERM "$servod_pid" 2>/dev/null || true
+fi
+wait "$servod_pid"
 servod_rc=$?
 set -e
 kill -TERM "$sim_pid" 2>/dev/null || true

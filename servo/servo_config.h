@@ -76,6 +76,8 @@ struct ServoConfig {
   hal::HalConfig hal;                   // loaded from hal_file; timing.cycle_period_s = 1 / rate
   double rate_hz = 1000.0;
   ClockMode clock = ClockMode::kRealtime;
+  double lockstep_timeout_s = 0.2;        // lock-step: longest wait for the devices' answers
+  double lockstep_short_timeout_s = 0.002;  // ... for 1000 cycles after an answer was missing
   ControllerConfig controller;
   std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};
   Reference::Kind reference = Reference::Kind::kStand;

@@ -123,7 +123,7 @@ int LockstepChannel::Pump() noexcept {
 }
 
 bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channels,
-                   std::int64_t timeout_ns) noexcept {
+                   std::int64_t timeout_ns, std::int64_t idle_ns) noexcept {
   int expected = 0;
   for (std::size_t b = 0; b < hal.num_buses(); ++b)
     for (const auto& d : hal.bus(b).devices()) expected += d.expect_inputs ? 1 : 0;
@@ -132,7 +132,7 @@ bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channe
   for (LockstepChannel* c : channels)
     if (c->poll_fd() >= 0 && nfds < fds.size()) fds[nfds++] = {c->poll_fd(), POLLIN, 0};
   // nothing owed (devices below SAFE-OP): only a moment for NMT answers and heartbeats
-  const std::int64_t end = MonotonicNs() + (expected == 0 ? std::min<std::int64_t>(timeout_ns, 1'000'000) : timeout_ns);
+  const std::int64_t end = MonotonicNs() + (expected == 0 ? std::min(timeout_ns, idle_ns) : timeout_ns);
   for (;;) {
     int got = 0;
     for (LockstepChannel* c : channels) got += c->Pump();
@@ -150,7 +150,7 @@ std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
   hal::RunBringUp(hal, hal::DeviceState::kOp, now, [&] {
     if (config.clock == ClockMode::kLockstep) {
       // devices that owe no TPDO yet answer NMT commands: give them a moment of wall time
-      (void)WaitForInputs(hal, channels, 20'000'000);
+      (void)WaitForInputs(hal, channels, 200'000'000, 20'000'000);
       now += period;
     } else {
       now += period;
@@ -185,10 +185,13 @@ void RunLockstep(ServoLoop& loop, const hal::Hal& hal, const ServoConfig& config
   // a device that stopped answering would make every cycle wait the full timeout: after a cycle
   // came up short, wait only briefly for the next thousand cycles
   int short_waits = 0;
+  const auto long_ns = static_cast<std::int64_t>(config.lockstep_timeout_s * 1e9);
+  const auto short_ns = static_cast<std::int64_t>(config.lockstep_short_timeout_s * 1e9);
   while (!loop.finished()) {
     now += period;
     loop.Cycle(now, 0);
-    const bool complete = WaitForInputs(hal, channels, short_waits > 0 ? 2'000'000 : 200'000'000);
+    const bool complete = WaitForInputs(hal, channels, short_waits > 0 ? short_ns : long_ns,
+                                        std::min<std::int64_t>(short_ns, 1'000'000));
     if (!complete) short_waits = 1000;
     else if (short_waits > 0) --short_waits;
   }

@@ -13,6 +13,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <thread>
@@ -254,7 +255,11 @@ int main(int argc, char** argv) {
   try {
     config = hyq::config::LoadServoConfig(opt.config);
     Override(opt, config);
-    model = std::make_unique<hyq::dynamics::Model>(hyq::dynamics::LoadModelFromUrdf(config.urdf));
+    try {
+      model = std::make_unique<hyq::dynamics::Model>(hyq::dynamics::LoadModelFromUrdf(config.urdf));
+    } catch (const std::exception& e) {
+      throw std::runtime_error(config.source + ": key 'robot.urdf': " + e.what());
+    }
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hyq-servod: %s\n", e.what());
     return 1;

@@ -1,0 +1,53 @@
+#!/usr/bin/env bash
+# hyq-servod --check on good and bad configurations: a bad one exits non-zero with a message that
+# names the file, the key and what was expected.
+#   servod_check_test.sh HYQ_SERVOD SOURCE_DIR WORK_DIR
+set -uo pipefail
+servod=$1 src=$2 work=$3
+rm -rf "$work" && mkdir -p "$work"
+cp "$src/config/hyq_hal.yaml" "$work/" && cp -r "$src/config/robots" "$work/"
+good="$src/config/hyq_servo.yaml"
+fails=0
+
+expect_ok() {
+  if out=$("$servod" --check --config "$1" 2>&1); then echo "ok   $1: $out"
+  else echo "FAIL $1 should be valid: $out"; fails=$((fails + 1)); fi
+}
+# expect_error NAME 'sed program' 'text'...: the variant fails --check and names every text
+expect_error() {
+  local name=$1 prog=$2
+  shift 2
+  local f="$work/$name.yaml"
+  sed "$prog" "$good" > "$f"
+  cmp -s "$f" "$good" && { echo "FAIL $name: the sed program changed nothing"; fails=$((fails + 1)); return; }
+  out=$("$servod" --check --config "$f" 2>&1)
+  rc=$?
+  if ((rc == 0)); then echo "FAIL $name: accepted"; fails=$((fails + 1)); return; fi
+  for t in "$f" "$@"; do
+    if [[ "$out" != *"$t"* ]]; then echo "FAIL $name: message lacks '$t': $out"; fails=$((fails + 1)); return; fi
+  done
+  echo "ok   $name (exit $rc): $out"
+}
+
+expect_ok "$good"
+expect_ok "$src/config/hyq_servo_sim.yaml"
+expect_error syntax_error 's/^  kind: two_stage .*/  kind: [two_stage/' "not valid YAML" "expected well-formed YAML"
+expect_error unknown_key 's/^  rate_hz: 1000 .*/  rate_hz: 1000\n  rate_khz: 1/' "key 'loop.rate_khz'" "expected one of the keys" "unknown key 'rate_khz'"
+expect_error wrong_joint_count 's/^    kp_tau: \[300, 300, 300\].*/    kp_tau: [300, 300, 300, 300, 300]/' "key 'controller.gains.kp_tau'" "12 numbers" "a list of 5"
+expect_error impossible_bus_load 's/^  rate_hz: 1000 .*/  rate_hz: 4000/' "key 'loop.rate_hz'" "bus" "load"
+expect_error negative_gain 's/^    kd_tau: \[8, 8, 8\].*/    kd_tau: [8, -8, 8]/' "key 'controller.gains.kd_tau[1]'" "a value in [0, 200]" "'-8'"
+expect_error unstable_gain 's/^    kd_acc: 0 .*/    kd_acc: 900/' "key 'controller.gains.kd_acc" "0.5/dt" "'900'"
+expect_error no_position_gain 's/^    kp_tau: \[300, 300, 300\].*/    kp_tau: 0/' "key 'controller.gains'" "a position gain > 0"
+expect_error bad_controller 's/^  kind: two_stage .*/  kind: mpc/' "key 'controller.kind'" "one of 'pid' 'noslip' 'stage1' 'two_stage'" "'mpc'"
+expect_error bad_mu 's/^  mu: 0.6 .*/  mu: [0.6, 0.6, nan, 0.6]/' "key 'contact.mu[2]'" "a finite number"
+expect_error missing_urdf 's|^  urdf: robots/hyq.urdf|  urdf: robots/nope.urdf|' "nope.urdf"
+expect_error bad_lcm_url 's|^  lcm_url: .*|  lcm_url: tcp://host|' "key 'telemetry.lcm_url'" "udpm://"
+
+# bad command-line flags name the flag, what was expected and what was found
+out=$("$servod" --clock warp 2>&1); rc=$?
+if ((rc == 2)) && [[ "$out" == *"--clock"* && "$out" == *"realtime or lockstep"* && "$out" == *"warp"* ]]; then
+  echo "ok   bad flag: $out"; else echo "FAIL bad flag (exit $rc): $out"; fails=$((fails + 1)); fi
+"$servod" --help >/dev/null || { echo "FAIL --help"; fails=$((fails + 1)); }
+
+((fails == 0)) && echo "servod_check_test: PASS" || echo "servod_check_test: $fails failure(s)"
+exit $((fails > 0))
