@@ -28,7 +28,9 @@ while (($#)); do
     --clock) clock="$2"; shift ;;
     --fault) faults+=(--fault "$2"); shift ;;
     --sim-arg) sim_args+=("$2"); shift ;;
+    --sim-arg=*) sim_args+=("${1#--sim-arg=}") ;;
     --servod-arg) servod_args+=("$2"); shift ;;
+    --servod-arg=*) servod_args+=("${1#--servod-arg=}") ;;
     --build) build="$2"; shift ;;
     --no-logger) logger=0 ;;
     --sigterm-after) sigterm_after="$2"; shift ;;

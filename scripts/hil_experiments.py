@@ -1,0 +1,319 @@
+#!/usr/bin/python3
+"""The paper's mu = 0.1 experiments through the loop (issue #8): hyq-sim + hyq-servod on virtual
+CAN (scripts/hil.sh, lock-step), beside the in-process runs of hyq-experiment.
+
+    /usr/bin/python3 scripts/hil_experiments.py [--out DIR] [--quick]
+
+Runs, for trot (6 s) and Figure-Eight (5 s, as hyq-experiment) on mu = 0.1 with pid, noslip and
+two_stage:
+  - in-process (hyq-experiment --scenario ..., true state, ideal actuators, no noise, no bus),
+  - HIL "full": actuator lag 5 ms (hyq-sim default), load-cell noise, IMU noise, seeds 1 and 2,
+  - HIL ablations (seed 1): noise off; actuator lag off; both off.
+Writes DIR/runs/<name>/ (hil.sh output), DIR/results.json, and the markdown tables DIR/tables.md
+(docs/hil_experiments.md quotes them) and the figure DIR/hil_mu0.1.png (if matplotlib).
+Every number comes from these runs; nothing is hard-coded.
+"""
+import argparse, json, math, os, subprocess, sys, time
+import xml.etree.ElementTree as ET
+
+HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+BUILD = os.path.join(HERE, "build", "release")
+MU = 0.1
+LOAD_CELL_NOISE = "2"          # N*m at the joint, sigma
+IMU_NOISE = "0.01,0.1"         # gyro rad/s, accelerometer m/s^2, sigma
+ACT_TAU = "0.005"              # hyq-sim default, 5 ms
+REFS = {"trot": ("trot", 6.0), "eight": ("figure_eight", 0.5 + 4.0 + 0.5)}
+CTRLS = ["pid", "noslip", "two_stage"]
+VARIANTS = {  # name -> hyq-sim args
+    "full": ["--actuator-tau", ACT_TAU, "--load-cell-noise", LOAD_CELL_NOISE, "--imu-noise", IMU_NOISE],
+    "full_seed2": ["--actuator-tau", ACT_TAU, "--load-cell-noise", LOAD_CELL_NOISE, "--imu-noise", IMU_NOISE,
+                   "--seed", "2"],
+    "no_noise": ["--actuator-tau", ACT_TAU],
+    "no_lag": ["--actuator-tau", "0", "--load-cell-noise", LOAD_CELL_NOISE, "--imu-noise", IMU_NOISE],
+    "no_lag_no_noise": ["--actuator-tau", "0"],
+}
+LEGS = ["lf", "rf", "lh", "rh"]
+FOOT_R = 0.02175
+
+
+# ---------- kinematics from the project's URDF (for the slip speed of truth.csv) ----------
+def mat_mul(a, b):
+    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+
+
+def mat_vec(a, v):
+    return [sum(a[i][k] * v[k] for k in range(3)) for i in range(3)]
+
+
+def transpose(a):
+    return [[a[j][i] for j in range(3)] for i in range(3)]
+
+
+def rpy_to_mat(r, p, y):
+    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
+    rx = [[1, 0, 0], [0, cr, -sr], [0, sr, cr]]
+    ry = [[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]]
+    rz = [[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]]
+    return mat_mul(rz, mat_mul(ry, rx))
+
+
+def axis_angle(axis, q):
+    x, y, z = axis
+    c, s, t = math.cos(q), math.sin(q), 1 - math.cos(q)
+    return [[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
+            [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
+            [t * x * z - s * y, t * y * z + s * x, t * z * z + c]]
+
+
+def quat_to_mat(w, x, y, z):
+    return [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
+            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
+            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
+
+
+def load_chains(urdf):
+    joints = {}
+    for j in ET.parse(urdf).getroot().findall("joint"):
+        o = j.find("origin")
+        xyz = [float(v) for v in (o.get("xyz", "0 0 0").split() if o is not None else "0 0 0".split())]
+        rpy = [float(v) for v in (o.get("rpy", "0 0 0").split() if o is not None else "0 0 0".split())]
+        a = j.find("axis")
+        joints[j.find("child").get("link")] = dict(
+            name=j.get("name"), type=j.get("type"), parent=j.find("parent").get("link"),
+            xyz=xyz, R=rpy_to_mat(*rpy), axis=[float(v) for v in a.get("xyz").split()] if a is not None else None)
+    chains = {}
+    for leg in LEGS:
+        chain, link = [], f"{leg}_foot"
+        while link != "trunk":
+            chain.append(joints[link])
+            link = joints[link]["parent"]
+        chains[leg] = list(reversed(chain))
+    return chains
+
+
+def foot_pose(chain, base_p, base_R, qmap):
+    p, R = base_p, base_R
+    for j in chain:
+        p = [p[i] + v for i, v in enumerate(mat_vec(R, j["xyz"]))]
+        R = mat_mul(R, j["R"])
+        if j["type"] == "revolute":
+            R = mat_mul(R, axis_angle(j["axis"], qmap[j["name"]]))
+    return p, R
+
+
+def slip_from_truth(path, chains, t0, t1):
+    """Mean tangential speed of the material contact point of touching feet for t0 <= t < t1."""
+    with open(path) as f:
+        head = f.readline().strip().split(",")
+        rows = [list(map(float, l.split(","))) for l in f if l.strip()]
+    col = {n: i for i, n in enumerate(head)}
+    qnames = [n[2:] for n in head if n.startswith("q_")]
+    dt = rows[1][0] - rows[0][0] if len(rows) > 1 else 1e-3
+    poses = []
+    for r in rows:
+        bp = [r[col["x"]], r[col["y"]], r[col["z"]]]
+        bR = quat_to_mat(r[col["qw"]], r[col["qx"]], r[col["qy"]], r[col["qz"]])
+        qm = {n: r[col["q_" + n]] for n in qnames}
+        poses.append({leg: foot_pose(chains[leg], bp, bR, qm) for leg in LEGS})
+    total, n = 0.0, 0
+    for k in range(len(rows) - 1):
+        t = rows[k][0]
+        if t < t0 or t >= t1 or rows[k][col["holding"]] > 0.5:
+            continue
+        for leg in LEGS:
+            if rows[k][col[f"{leg}_touching"]] < 0.5 or rows[k + 1][col[f"{leg}_touching"]] < 0.5:
+                continue
+            (p0, R0), (p1, R1) = poses[k][leg], poses[k + 1][leg]
+            b = mat_vec(transpose(R0), [0.0, 0.0, -FOOT_R])   # the contact point, body-fixed
+            c0 = [p0[i] + v for i, v in enumerate(mat_vec(R0, b))]
+            c1 = [p1[i] + v for i, v in enumerate(mat_vec(R1, b))]
+            total += math.hypot(c1[0] - c0[0], c1[1] - c0[1]) / dt
+            n += 1
+    return total / n if n else float("nan"), dt
+
+
+# ---------- runs ----------
+def run_hil(out, ref, duration, ctrl, sim_args, log, resume=False):
+    cmd = [os.path.join(HERE, "scripts", "hil.sh"), "--out", out, "--duration", str(duration),
+           "--reference", ref, "--controller", ctrl, "--mu", str(MU), "--clock", "lockstep",
+           "--no-logger", "--quiet", "--sim-arg", "--truth-every", "--sim-arg", "1"]
+    for a in sim_args:
+        cmd += ["--sim-arg", a]
+    files = [os.path.join(out, f) for f in ("servod.json", "sim.json", "hil.json", "cmd.txt")]
+    rc = 0
+    if resume and all(os.path.exists(f) for f in files) and open(files[3]).read() == " ".join(cmd):
+        log.write("# reused " + out + "\n")
+    else:
+        for attempt in range(2):  # one retry: a bring-up once failed with 'bind: Address already in use'
+            log.write("$ " + " ".join(cmd) + "\n")
+            t = time.time()
+            p = subprocess.run(cmd, capture_output=True, text=True)
+            log.write(p.stdout + p.stderr + f"(exit {p.returncode}, {time.time() - t:.1f} s wall)\n\n")
+            log.flush()
+            rc = p.returncode
+            if os.path.exists(files[0]):
+                break
+        open(files[3], "w").write(" ".join(cmd))
+    s = json.load(open(os.path.join(out, "servod.json")))
+    sim = json.load(open(os.path.join(out, "sim.json")))
+    h = json.load(open(os.path.join(out, "hil.json")))
+    return s, sim, h, rc, cmd
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default=os.path.join(HERE, "hil-experiments"))
+    ap.add_argument("--quick", action="store_true", help="only the 'full' variant")
+    ap.add_argument("--resume", action="store_true", help="reuse runs already in DIR/runs made by the same command")
+    a = ap.parse_args()
+    os.makedirs(a.out, exist_ok=True)
+    log = open(os.path.join(a.out, "commands.log"), "a" if a.resume else "w")
+    chains = load_chains(os.path.join(HERE, "config", "robots", "hyq.urdf"))
+
+    # in-process (hyq-experiment): the reference numbers of docs/experiments.md
+    inproc_dir = os.path.join(a.out, "inprocess")
+    cmd = [os.path.join(BUILD, "tools", "hyq-experiment", "hyq-experiment"), "--out", inproc_dir]
+    for r in REFS:
+        for c in CTRLS:
+            cmd += ["--scenario", f"{r}_mu{MU}_{c}"]
+    log.write("$ " + " ".join(cmd) + "\n")
+    subprocess.run(cmd, check=True, capture_output=True)
+    inproc = json.load(open(os.path.join(inproc_dir, "results.json")))["scenarios"]
+
+    results = {"settings": {"mu": MU, "load_cell_noise_Nm": LOAD_CELL_NOISE, "imu_noise": IMU_NOISE,
+                            "actuator_tau_s": ACT_TAU, "clock": "lockstep"},
+               "inprocess": {}, "hil": {}}
+    for r in REFS:
+        for c in CTRLS:
+            x = inproc[f"{r}_mu{MU}_{c}"]
+            results["inprocess"][f"{r}_{c}"] = {
+                "mean_error_rad": x["mean_error_rad"], "max_error_rad": x["max_error_rad"],
+                "fell": x["fell"], "fell_at_s": x["fell_at_s"], "mean_slip_m_s": x["mean_slip_speed_m_s"],
+                "qp_mean_us": x["qp_us"]["mean"], "qp_max_us": x["qp_us"]["max"],
+                "fallbacks": x["fallbacks"]}
+
+    variants = ["full"] if a.quick else list(VARIANTS)
+    for v in variants:
+        for r, (ref, dur) in REFS.items():
+            for c in CTRLS:
+                name = f"{r}_{c}_{v}"
+                out = os.path.join(a.out, "runs", name)
+                s, sim, h, rc, cmd = run_hil(out, ref, dur, c, VARIANTS[v], log, a.resume)
+                t0 = sim.get("released_at_s", 0.0)
+                slip, dt = slip_from_truth(os.path.join(out, "truth.csv"), chains, t0, h["t_stop_s"])
+                res = {
+                    "command": " ".join(cmd), "exit": rc,
+                    "active_s": s["active_s"], "final_mode": s["final_mode"],
+                    "mean_error_rad": s["tracking_error_mean_rad"], "max_error_rad": s["tracking_error_max_rad"],
+                    "fell_while_active": h["fell_while_active"],
+                    "fell_at_active_s": (sim["fell_at_s"] - t0) if h["fell_while_active"] else None,
+                    "mean_slip_m_s": slip,
+                    "qp_mean_us": s["qp_time_mean_us"], "qp_max_us": s["qp_time_max_us"],
+                    "fallbacks": s["controller_fallbacks"],
+                    "control_p50_us": s["control_time"]["p50_us"], "control_p999_us": s["control_time"]["p999_us"],
+                    "control_max_us": s["control_time"]["max_us"],
+                    "events": s["events"], "speed": sim.get("speed"),
+                }
+                results["hil"][name] = res
+                print(f"{name:32s} err {res['mean_error_rad']:.4f}/{res['max_error_rad']:.4f} rad  "
+                      f"fell {res['fell_while_active']}  slip {slip:.3f} m/s  qp {res['qp_mean_us']:.1f}/"
+                      f"{res['qp_max_us']:.0f} us  fb {res['fallbacks']}  mode {res['final_mode']}", flush=True)
+    json.dump(results, open(os.path.join(a.out, "results.json"), "w"), indent=1)
+    write_tables(results, a.out, variants)
+    plot(results, a.out, variants)
+
+
+def pct(a, b):
+    return 100.0 * (a - b) / b
+
+
+def fell_txt(fell, at):
+    return f"**falls at {at:.2f} s**" if fell else "no"
+
+
+def write_tables(R, out, variants):
+    L = []
+    name = {"trot": "trot (6 s)", "eight": "Figure-Eight (5 s)"}
+    L.append("### Main table: mu = 0.1, in-process vs through the loop (HIL 'full')\n")
+    L.append("| scenario | controller | in-process mean / max error (rad) | in-process slip (m/s) | in-process fell | "
+             "HIL mean / max error (rad) | HIL slip (m/s) | HIL fell while active | HIL QP mean / max (µs) | HIL fallbacks |")
+    L.append("|---|---|---|---|---|---|---|---|---|---|")
+    for r in REFS:
+        for c in CTRLS:
+            i, h = R["inprocess"][f"{r}_{c}"], R["hil"][f"{r}_{c}_full"]
+            L.append(f"| {name[r]} | {c} | {i['mean_error_rad']:.4f} / {i['max_error_rad']:.3f} | {i['mean_slip_m_s']:.3f} | "
+                     f"{fell_txt(i['fell'], i['fell_at_s'])} | {h['mean_error_rad']:.4f} / {h['max_error_rad']:.3f} | "
+                     f"{h['mean_slip_m_s']:.3f} | {fell_txt(h['fell_while_active'], h['fell_at_active_s'] or 0)} | "
+                     f"{h['qp_mean_us']:.1f} / {h['qp_max_us']:.0f} | {h['fallbacks']} |")
+    L.append("\n### Two-stage ID vs PID and vs no-slip ID (mean tracking error)\n")
+    L.append("| scenario | comparison | in-process | HIL full (seed 1) | HIL full (seed 2) |")
+    L.append("|---|---|---|---|---|")
+    for r in REFS:
+        for other in ["pid", "noslip"]:
+            i = pct(R["inprocess"][f"{r}_two_stage"]["mean_error_rad"], R["inprocess"][f"{r}_{other}"]["mean_error_rad"])
+            cells = []
+            for v in ["full", "full_seed2"]:
+                if f"{r}_two_stage_{v}" in R["hil"]:
+                    cells.append(f"{pct(R['hil'][f'{r}_two_stage_{v}']['mean_error_rad'], R['hil'][f'{r}_{other}_{v}']['mean_error_rad']):+.1f} %")
+                else:
+                    cells.append("—")
+            L.append(f"| {name[r]} | two-stage vs {other} | {i:+.1f} % | " + " | ".join(cells) + " |")
+    if len(variants) > 1:
+        L.append("\n### One factor at a time (mean error rad; fell while active at s; mean slip m/s)\n")
+        L.append("| scenario | controller | in-process (none of the factors) | HIL lag off + noise off | HIL noise off | HIL lag off | HIL full | HIL full, seed 2 |")
+        L.append("|---|---|---|---|---|---|---|---|")
+        for r in REFS:
+            for c in CTRLS:
+                i = R["inprocess"][f"{r}_{c}"]
+                cells = [f"{i['mean_error_rad']:.4f}" + (f" (falls {i['fell_at_s']:.2f})" if i["fell"] else "") + f"; {i['mean_slip_m_s']:.3f}"]
+                for v in ["no_lag_no_noise", "no_noise", "no_lag", "full", "full_seed2"]:
+                    h = R["hil"][f"{r}_{c}_{v}"]
+                    cells.append(f"{h['mean_error_rad']:.4f}" + (f" (falls {h['fell_at_active_s']:.2f})" if h["fell_while_active"] else "")
+                                 + f"; {h['mean_slip_m_s']:.3f}")
+                L.append(f"| {name[r]} | {c} | " + " | ".join(cells) + " |")
+    L.append("\n### Servo-cycle controller time in the HIL 'full' runs (µs, wall clock of the lock-step daemon)\n")
+    L.append("| scenario | controller | control p50 | control p99.9 | control max | lock-step speed (sim s / wall s) |")
+    L.append("|---|---|---|---|---|---|")
+    for r in REFS:
+        for c in CTRLS:
+            h = R["hil"][f"{r}_{c}_full"]
+            L.append(f"| {name[r]} | {c} | {h['control_p50_us']:.1f} | {h['control_p999_us']:.1f} | {h['control_max_us']:.0f} | {h['speed']:.2f} |")
+    open(os.path.join(out, "tables.md"), "w").write("\n".join(L) + "\n")
+    print("\n".join(L))
+
+
+def plot(R, out, variants):
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("no matplotlib: no figure")
+        return
+    cols = [("in-process", None)] + [(v, v) for v in ["no_lag_no_noise", "no_noise", "no_lag", "full"] if v in variants]
+    fig, axs = plt.subplots(1, 2, figsize=(11, 4))
+    for ax, r in zip(axs, REFS):
+        w = 0.8 / len(cols)
+        for k, (label, v) in enumerate(cols):
+            ys, falls = [], []
+            for c in CTRLS:
+                d = R["inprocess"][f"{r}_{c}"] if v is None else R["hil"][f"{r}_{c}_{v}"]
+                ys.append(d["mean_error_rad"])
+                falls.append(d["fell"] if v is None else d["fell_while_active"])
+            xs = [j + (k - (len(cols) - 1) / 2) * w for j in range(len(CTRLS))]
+            bars = ax.bar(xs, ys, w, label=label)
+            for x, y, f in zip(xs, ys, falls):
+                if f:
+                    ax.text(x, y, "fell", ha="center", va="bottom", fontsize=7, rotation=90)
+        ax.set_xticks(range(len(CTRLS)), CTRLS)
+        ax.set_yscale("log")
+        ax.set_ylabel("mean ‖q_ref − q‖ (rad)")
+        ax.set_title({"trot": "trot 6 s, μ = 0.1", "eight": "Figure-Eight, μ = 0.1"}[r])
+    axs[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "hil_mu0.1.png"), dpi=110)
+    print("figure", os.path.join(out, "hil_mu0.1.png"))
+
+
+if __name__ == "__main__":
+    main()
