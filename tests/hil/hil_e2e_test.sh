@@ -136,12 +136,13 @@ EOS
     check_json 'not sim["fell"] or sim["fell_at_s"] > sim["released_at_s"] + s["active_s"]'
     ;;
   mainjob)
-    (cd "$here" && HYQ_PRESET="${HYQ_PRESET:-ci}" scripts/run.sh --duration 1 --out "$out" --quiet) > "$out/run.log" 2>&1
+    # (hil.sh empties its output folder: the command's own output goes beside it)
+    (cd "$here" && HYQ_PRESET="${HYQ_PRESET:-ci}" scripts/run.sh --duration 1 --out "$out" --quiet) > "$out.run.log" 2>&1
     rc=$?
-    cat "$out/run.log"
+    cat "$out.run.log"
     [[ $rc -eq 0 ]] || fail "scripts/run.sh exit $rc"
-    grep -q "did not fall while active" "$out/run.log" || fail "no summary line about the robot"
-    grep -q "tracking error" "$out/run.log" || fail "no tracking-error line in the summary"
+    grep -q "did not fall while active" "$out.run.log" || fail "no summary line about the robot"
+    grep -q "tracking error" "$out.run.log" || fail "no tracking-error line in the summary"
     [[ -s "$out/telemetry.lcmlog" ]] || fail "no LCM log kept"
     ;;
   *) fail "unknown mode $mode" ;;
