@@ -8,6 +8,7 @@
 #                  [--fault T:KIND:TARGET[:ARG]]... [--sim-arg ARG]... [--servod-arg ARG]...
 #                  [--build DIR] [--no-logger] [--candump] [--sigterm-after S] [--quiet]
 #
+# --servod-bin PATH: another hyq-servod (e.g. a thread-sanitizer build) against this build's hyq-sim.
 # --sigterm-after S: SIGTERM to the daemon after S wall seconds (with --duration 0: run until then).
 # Defaults: 5 s of trot on mu = 0.1 with the two-stage ID, lock-step, OUT = hil-run/.
 # Exit status: the daemon's (0 controlled stop, 3 stopped in FAULT), 4 when the robot fell.
@@ -15,7 +16,7 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 
 out=hil-run duration=5 reference=trot controller=two_stage mu=0.1 clock=lockstep
-build="$here/build/release" logger=1 candump=0 quiet=0 sigterm_after=
+build="$here/build/release" logger=1 candump=0 quiet=0 sigterm_after= servod_bin=
 faults=() sim_args=() servod_args=()
 usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
 while (($#)); do
@@ -34,6 +35,7 @@ while (($#)); do
     --build) build="$2"; shift ;;
     --no-logger) logger=0 ;;
     --sigterm-after) sigterm_after="$2"; shift ;;
+    --servod-bin) servod_bin="$2"; shift ;;
     --candump) candump=1 ;;
     --quiet) quiet=1 ;;
     -h|--help) usage 0 ;;
@@ -50,7 +52,7 @@ if [[ -z "${HYQ_HIL_NETNS:-}" ]]; then
   exec "${ns[@]}" env HYQ_HIL_NETNS=1 "$0" --out "$out" --duration "$duration" \
     --reference "$reference" --controller "$controller" --mu "$mu" --clock "$clock" \
     --build "$build" "${faults[@]}" $( ((logger)) || echo --no-logger) \
-    ${sigterm_after:+--sigterm-after "$sigterm_after"} \
+    ${sigterm_after:+--sigterm-after "$sigterm_after"} ${servod_bin:+--servod-bin "$servod_bin"} \
     $( ((candump)) && echo --candump) $( ((quiet)) && echo --quiet) \
     "${sim_args[@]/#/--sim-arg=}" "${servod_args[@]/#/--servod-arg=}"
 fi
@@ -58,7 +60,7 @@ ip link set lo up
 ip route add 224.0.0.0/4 dev lo 2>/dev/null || true
 
 sim="$build/tools/hyq-sim/hyq-sim"
-servod="$build/tools/hyq-servod/hyq-servod"
+servod="${servod_bin:-$build/tools/hyq-servod/hyq-servod}"
 for b in "$sim" "$servod"; do
   [[ -x "$b" ]] || { echo "hil.sh: $b not built (cmake --build --preset release)" >&2; exit 1; }
 done

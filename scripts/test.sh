@@ -7,3 +7,5 @@ scripts/bootstrap.sh
 cmake --preset ci
 cmake --build --preset ci
 ctest --preset ci --parallel "$(nproc)" "$@"
+# the daemon's threads under ThreadSanitizer (a separate build); only for the whole suite
+if (($# == 0)) && [[ "${HYQ_SKIP_TSAN:-0}" != 1 ]]; then scripts/tsan_check.sh; fi

@@ -133,8 +133,8 @@ class TwoStageId {
                                            kMaxForceRows, 6>> qr_;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxForceRows,
                 kMaxForceRows> Qw_;
-  Eigen::Matrix<double, kMaxTangents, Eigen::Dynamic, Eigen::ColMajor, kMaxTangents,
-                kMaxTangents> tangent_null_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxTangents,
+                kMaxTangents> tangent_null_;  // r × (r − 2)
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxImpulses,
                 kMaxImpulses> P_;
   bool BuildNullSpace() noexcept;

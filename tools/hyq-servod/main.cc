@@ -337,9 +337,11 @@ int main(int argc, char** argv) {
 
   const std::int64_t wall0 = hyq::servo::MonotonicNs();
   std::atomic<bool> servo_done{false};
+  std::atomic<bool> rt_ready{false};  // release/acquire: the report is the servo thread's until then
   hyq::servo::RealtimeReport rt;
   std::thread servo([&] {
     rt = hyq::servo::SetUpRealtimeThread(config.realtime);
+    rt_ready.store(true, std::memory_order_release);
     loop->Start(start_ns);
     if (config.clock == hyq::servo::ClockMode::kLockstep)
       hyq::servo::RunLockstep(*loop, *hal, config, lockstep, start_ns);
@@ -357,7 +359,7 @@ int main(int argc, char** argv) {
       if (!opt.quiet) std::fprintf(stderr, "hyq-servod: %s: controlled stop\n", strsignal(sig));
       loop->RequestStop();
     }
-    if (!warned && loop->published_cycles() > 0) {  // the servo thread has set itself up
+    if (!warned && rt_ready.load(std::memory_order_acquire)) {  // the servo thread is set up
       warned = true;
       for (const auto& w : rt.warnings) std::fprintf(stderr, "hyq-servod: warning: %s\n", w.c_str());
     }
