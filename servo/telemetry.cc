@@ -510,14 +510,14 @@ void Telemetry::Impl::OnCommand(const lcm::ReceiveBuffer* rbuf, const std::strin
   if (msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
     std::snprintf(why, sizeof why, "message: expected lcmt_hyq_command, found %u undecodable bytes",
                   rbuf->data_size);
+    TellServoInvalid(-1);  // first: whoever sees the refusal event finds the servo told already
     Reject(-1, why);
-    TellServoInvalid(-1);
     return;
   }
   ServoCommand command;
   if (!Validate(msg, &command, why, sizeof why)) {
-    Reject(msg.sequence, why);
     TellServoInvalid(msg.sequence);
+    Reject(msg.sequence, why);
     return;
   }
   // rate limit: accepted commands at least 1 / max_rate_hz apart
