@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
+#include <string_view>
 
 namespace hyq::servo {
 
@@ -20,11 +21,11 @@ Fault MakeFault(EventReason reason, int joint, int bus, const char* fmt, ...) no
 
 namespace {
 
-const char* JointLabel(int j) noexcept {
-  static constexpr const char* kNames[hal::kNumJoints] = {
-      "lf_haa", "lf_hfe", "lf_kfe", "rf_haa", "rf_hfe", "rf_kfe",
-      "lh_haa", "lh_hfe", "lh_kfe", "rh_haa", "rh_hfe", "rh_kfe"};
-  return j >= 0 && j < hal::kNumJoints ? kNames[j] : "?";
+// "lf_haa" for joint 0 (the HAL's joint name without "_joint"), for event details.
+std::string_view JointLabel(int j) noexcept {
+  std::string_view name = hal::JointName(j);
+  if (name.ends_with("_joint")) name.remove_suffix(6);
+  return name.empty() ? std::string_view("?") : name;
 }
 
 }  // namespace
@@ -88,39 +89,40 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
   for (int j = 0; j < hal::kNumJoints; ++j) {
     const auto ju = static_cast<std::size_t>(j);
     const auto& in = image.joints[ju];
+    const std::string_view label = JointLabel(j);
     switch (in.status) {
       case hal::InputStatus::kValid:
         break;
       case hal::InputStatus::kDeviceFault:
-        note(MakeFault(EventReason::kDeviceFault, j, -1, "%s reports a fault (status 0x%04x)",
-                       JointLabel(j), in.status_word));
+        note(MakeFault(EventReason::kDeviceFault, j, -1, "%.*s reports a fault (status 0x%04x)",
+                       static_cast<int>(label.size()), label.data(), in.status_word));
         break;
       case hal::InputStatus::kMissing:
       case hal::InputStatus::kDuplicate:
       case hal::InputStatus::kNotOperational:
         if (in.age_cycles >= static_cast<std::uint32_t>(limits_.max_missing_cycles))
-          note(MakeFault(EventReason::kInputMissing, j, -1, "%s: no fresh input for %u cycles (%s)",
-                         JointLabel(j), in.age_cycles, hal::ToString(in.status)));
+          note(MakeFault(EventReason::kInputMissing, j, -1, "%.*s: no fresh input for %u cycles (%s)",
+                         static_cast<int>(label.size()), label.data(), in.age_cycles, hal::ToString(in.status)));
         continue;  // stale values: nothing more to check
     }
     if (!std::isfinite(in.position_rad) || !std::isfinite(in.velocity_rad_s) ||
         !std::isfinite(in.torque_Nm)) {
-      note(MakeFault(EventReason::kNonFiniteInput, j, -1, "%s: non-finite reading q=%g qd=%g tau=%g",
-                     JointLabel(j), in.position_rad, in.velocity_rad_s, in.torque_Nm));
+      note(MakeFault(EventReason::kNonFiniteInput, j, -1, "%.*s: non-finite reading q=%g qd=%g tau=%g",
+                     static_cast<int>(label.size()), label.data(), in.position_rad, in.velocity_rad_s, in.torque_Nm));
       continue;
     }
     if (in.position_rad < q_min_[ju] || in.position_rad > q_max_[ju])
-      note(MakeFault(EventReason::kOutOfRange, j, -1, "%s: q=%.4f rad outside [%.4f, %.4f]",
-                     JointLabel(j), in.position_rad, q_min_[ju], q_max_[ju]));
+      note(MakeFault(EventReason::kOutOfRange, j, -1, "%.*s: q=%.4f rad outside [%.4f, %.4f]",
+                     static_cast<int>(label.size()), label.data(), in.position_rad, q_min_[ju], q_max_[ju]));
     if (std::abs(in.velocity_rad_s) > limits_.max_velocity_rad_s)
-      note(MakeFault(EventReason::kOutOfRange, j, -1, "%s: |qd|=%.3f rad/s above %.3f",
-                     JointLabel(j), in.velocity_rad_s, limits_.max_velocity_rad_s));
+      note(MakeFault(EventReason::kOutOfRange, j, -1, "%.*s: |qd|=%.3f rad/s above %.3f",
+                     static_cast<int>(label.size()), label.data(), in.velocity_rad_s, limits_.max_velocity_rad_s));
     if (std::abs(in.torque_Nm) > limits_.max_measured_torque_Nm)
-      note(MakeFault(EventReason::kOutOfRange, j, -1, "%s: |tau measured|=%.1f N m above %.1f",
-                     JointLabel(j), in.torque_Nm, limits_.max_measured_torque_Nm));
+      note(MakeFault(EventReason::kOutOfRange, j, -1, "%.*s: |tau measured|=%.1f N m above %.1f",
+                     static_cast<int>(label.size()), label.data(), in.torque_Nm, limits_.max_measured_torque_Nm));
     if (have_last_[ju] && std::abs(in.position_rad - last_q_[ju]) > limits_.max_position_jump_rad)
-      note(MakeFault(EventReason::kInputJump, j, -1, "%s: q jumped %.4f rad in one cycle (max %.4f)",
-                     JointLabel(j), in.position_rad - last_q_[ju], limits_.max_position_jump_rad));
+      note(MakeFault(EventReason::kInputJump, j, -1, "%.*s: q jumped %.4f rad in one cycle (max %.4f)",
+                     static_cast<int>(label.size()), label.data(), in.position_rad - last_q_[ju], limits_.max_position_jump_rad));
     last_q_[ju] = in.position_rad;
     have_last_[ju] = true;
   }

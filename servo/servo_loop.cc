@@ -1,6 +1,6 @@
 #include "servo/servo_loop.h"
 
-#include <time.h>
+#include "servo/servo_runner.h"  // MonotonicNs
 
 #include <algorithm>
 #include <cmath>
@@ -8,12 +8,6 @@
 
 namespace hyq::servo {
 namespace {
-
-std::int64_t NowNs() noexcept {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
-}
 
 // Every device in PRE-OP or below (a lost device is in INIT): the stop is complete.
 bool AllDown(const hal::Hal& hal) noexcept {
@@ -211,11 +205,11 @@ void ServoLoop::Damping() noexcept {
 }
 
 void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexcept {
-  const std::int64_t t0 = NowNs();
+  const std::int64_t t0 = MonotonicNs();
   ++cycle_;
   safety_.BeginCycle(cycle_, now_ns);
   const hal::HalStatus rs = hal_.Read(now_ns);
-  const std::int64_t t1 = NowNs();
+  const std::int64_t t1 = MonotonicNs();
 
   // operator commands (a few per cycle at most), then a stop request
   ServoCommand cmd;
@@ -243,13 +237,13 @@ void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexc
     }
   }
   est_status_ = estimator_.Update(hal_.image(), ref_.joints.stance);
-  const std::int64_t t2 = NowNs();
+  const std::int64_t t2 = MonotonicNs();
 
   SampleReference();
-  const std::int64_t t3 = NowNs();
+  const std::int64_t t3 = MonotonicNs();
 
   RunController();
-  const std::int64_t t4 = NowNs();
+  const std::int64_t t4 = MonotonicNs();
 
   // safety: the mode decides the torque
   const ServoMode m = safety_.mode();
@@ -269,18 +263,18 @@ void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexc
       (AllDown(hal_) ||
        static_cast<double>(cycle_ - stop_cycle_) * dt_ > config_.hal.timing.state_timeout_s))
     finished_ = true;
-  const std::int64_t t5 = NowNs();
+  const std::int64_t t5 = MonotonicNs();
 
   const hal::HalStatus ws = hal_.Write(now_ns);
 
   // injected overrun (fault injection): spin inside the cycle's budget
   if (overrun_cycles_.load(std::memory_order_relaxed) > 0) {
-    const std::int64_t until = NowNs() + overrun_ns_.load(std::memory_order_relaxed);
-    while (NowNs() < until) {
+    const std::int64_t until = MonotonicNs() + overrun_ns_.load(std::memory_order_relaxed);
+    while (MonotonicNs() < until) {
     }
     overrun_cycles_.fetch_sub(1, std::memory_order_relaxed);
   }
-  const std::int64_t t6 = NowNs();
+  const std::int64_t t6 = MonotonicNs();
 
   // deadline
   timing_.wakeup_latency_ns = wakeup_latency_ns;

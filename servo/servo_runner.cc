@@ -87,41 +87,6 @@ RealtimeReport SetUpRealtimeThread(const RealtimeSettings& s) {
 
 // --- lock-step ---------------------------------------------------------------------------------
 
-LockstepChannel::LockstepChannel(std::unique_ptr<hal::CanChannel> inner)
-    : inner_(std::move(inner)) {
-  buffer_.resize(4096);
-}
-
-hal::CanStatus LockstepChannel::Send(std::span<const hal::CanFrame> frames,
-                                     std::size_t* sent) noexcept {
-  return inner_->Send(frames, sent);
-}
-
-hal::CanStatus LockstepChannel::Receive(std::span<hal::CanFrame> out,
-                                        std::size_t* received) noexcept {
-  std::size_t n = 0;
-  while (n < out.size() && head_ < tail_) out[n++] = buffer_[head_++];
-  if (head_ == tail_) head_ = tail_ = 0;
-  tpdos_ = 0;
-  std::size_t more = 0;
-  const hal::CanStatus st = inner_->Receive(out.subspan(n), &more);
-  *received = n + more;
-  return st;
-}
-
-int LockstepChannel::Pump() noexcept {
-  if (tail_ < buffer_.size()) {
-    std::size_t n = 0;
-    (void)inner_->Receive(std::span(buffer_).subspan(tail_), &n);
-    for (std::size_t i = tail_; i < tail_ + n; ++i)
-      if (!buffer_[i].is_extended() && !buffer_[i].is_error() &&
-          (buffer_[i].id & 0x780u) == hal::cob::kTpdo1)
-        ++tpdos_;
-    tail_ += n;
-  }
-  return tpdos_;
-}
-
 bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channels,
                    std::int64_t timeout_ns, std::int64_t idle_ns) noexcept {
   int expected = 0;

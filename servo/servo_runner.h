@@ -18,6 +18,7 @@
 
 #include "hal/can_channel.h"
 #include "hal/hal.h"
+#include "hal/lockstep_channel.h"
 #include "servo/servo_config.h"
 #include "servo/servo_loop.h"
 
@@ -36,28 +37,7 @@ struct RealtimeReport {
 /// Configuration time (allocates for the report).
 RealtimeReport SetUpRealtimeThread(const RealtimeSettings& settings);
 
-/// A channel wrapper that lets the lock-step runner see whether the TPDOs answering the last SYNC
-/// have arrived before the HAL's Read takes them (Read gets exactly the same frames, in order).
-class LockstepChannel : public hal::CanChannel {
- public:
-  explicit LockstepChannel(std::unique_ptr<hal::CanChannel> inner);
-  hal::CanStatus Send(std::span<const hal::CanFrame> frames, std::size_t* sent) noexcept override;
-  hal::CanStatus Receive(std::span<hal::CanFrame> out, std::size_t* received) noexcept override;
-  const hal::CanCounters& counters() const noexcept override { return inner_->counters(); }
-  bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
-  std::string_view name() const noexcept override { return inner_->name(); }
-  int poll_fd() const noexcept override { return inner_->poll_fd(); }
-  hal::CanChannel& inner() noexcept { return *inner_; }
-
-  /// Moves pending frames into the buffer; returns the TPDOs buffered since the last Receive.
-  int Pump() noexcept;
-
- private:
-  std::unique_ptr<hal::CanChannel> inner_;
-  std::vector<hal::CanFrame> buffer_;
-  std::size_t head_ = 0, tail_ = 0;
-  int tpdos_ = 0;
-};
+using hal::LockstepChannel;
 
 /// Waits (poll on the channels' descriptors) until the channels hold as many TPDOs as the HAL's
 /// devices owe for the last SYNC, at most `timeout_ns` of wall time; when no device owes one

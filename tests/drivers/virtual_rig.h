@@ -16,6 +16,7 @@
 #include "drivers/channel_factory.h"
 #include "hal/emulator.h"
 #include "hal/hal.h"
+#include "hal/lockstep_channel.h"
 #include "hal/protocol.h"
 
 namespace hyq::testing {
@@ -26,56 +27,12 @@ inline std::int64_t MonotonicNs() {
   return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
 }
 
-/// Buffers received frames so a test can see that every TPDO answering the last SYNC has
-/// arrived before the HAL's Read takes them (Read gets exactly the same frames, in order).
-class PeekingChannel : public hal::CanChannel {
- public:
-  explicit PeekingChannel(std::unique_ptr<hal::CanChannel> inner) : inner_(std::move(inner)) {
-    buffer_.resize(4096);
-  }
-  hal::CanStatus Send(std::span<const hal::CanFrame> f, std::size_t* sent) noexcept override {
-    return inner_->Send(f, sent);
-  }
-  hal::CanStatus Receive(std::span<hal::CanFrame> out, std::size_t* received) noexcept override {
-    std::size_t n = 0;
-    while (n < out.size() && head_ < tail_) out[n++] = buffer_[head_++];
-    if (head_ == tail_) head_ = tail_ = tpdos_ = 0;
-    std::size_t more = 0;
-    const auto st = inner_->Receive(out.subspan(n), &more);
-    *received = n + more;
-    return st;
-  }
-  /// Moves pending frames into the buffer; returns the TPDOs buffered so far.
-  int Pump() noexcept {
-    std::size_t n = 0;
-    if (tail_ < buffer_.size()) {
-      (void)inner_->Receive(std::span(buffer_).subspan(tail_), &n);
-      for (std::size_t i = tail_; i < tail_ + n; ++i)
-        if (!buffer_[i].is_extended() && (buffer_[i].id & 0x780u) == hal::cob::kTpdo1) ++tpdos_;
-      tail_ += n;
-    }
-    return tpdos_;
-  }
-  /// Frames buffered by Pump and not yet received.
-  std::size_t buffered() const noexcept { return tail_ - head_; }
-  const hal::CanCounters& counters() const noexcept override { return inner_->counters(); }
-  bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
-  std::string_view name() const noexcept override { return inner_->name(); }
-  int poll_fd() const noexcept override { return inner_->poll_fd(); }
-
- private:
-  std::unique_ptr<hal::CanChannel> inner_;
-  std::vector<hal::CanFrame> buffer_;
-  std::size_t head_ = 0, tail_ = 0;
-  int tpdos_ = 0;
-};
-
 struct VirtualRig {
   explicit VirtualRig(int first_port) : cfg(config::LoadHalConfig(HYQ_HAL_CONFIG)) {
     std::vector<hal::CanChannel*> masters, devices;
     for (std::size_t b = 0; b < cfg.buses.size(); ++b) {
       const std::string spec = "udp::" + std::to_string(first_port + static_cast<int>(b));
-      master.push_back(std::make_unique<PeekingChannel>(drivers::OpenChannel(spec)));
+      master.push_back(std::make_unique<hal::LockstepChannel>(drivers::OpenChannel(spec)));
       device.push_back(drivers::OpenChannel(spec));
       masters.push_back(master.back().get());
       devices.push_back(device.back().get());
@@ -126,7 +83,7 @@ struct VirtualRig {
   }
 
   hal::HalConfig cfg;
-  std::vector<std::unique_ptr<PeekingChannel>> master;
+  std::vector<std::unique_ptr<hal::LockstepChannel>> master;
   std::vector<std::unique_ptr<hal::CanChannel>> device;
   std::vector<pollfd> device_fds, master_fds;
   std::unique_ptr<hal::Hal> hal;

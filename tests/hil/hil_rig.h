@@ -88,7 +88,7 @@ struct UdpMaster {
   explicit UdpMaster(const std::vector<std::string>& specs) : cfg(HilHalConfig()) {
     std::vector<hal::CanChannel*> m;
     for (const std::string& s : specs) {
-      master.push_back(std::make_unique<PeekingChannel>(drivers::OpenChannel(s)));
+      master.push_back(std::make_unique<hal::LockstepChannel>(drivers::OpenChannel(s)));
       m.push_back(master.back().get());
       fds.push_back({master.back()->poll_fd(), POLLIN, 0});
     }
@@ -147,7 +147,7 @@ struct UdpMaster {
     (void)WaitForInputs(13, 200'000'000);
   }
   hal::HalConfig cfg;
-  std::vector<std::unique_ptr<PeekingChannel>> master;
+  std::vector<std::unique_ptr<hal::LockstepChannel>> master;
   std::vector<pollfd> fds;
   std::unique_ptr<hal::Hal> hal;
   std::int64_t cycles = 0;

@@ -1,0 +1,40 @@
+// A channel wrapper that lets a caller see whether the TPDOs answering the last SYNC have arrived
+// before the HAL's Read takes them: Pump() moves pending frames into a fixed buffer and counts
+// the TPDOs; Receive() hands the HAL exactly the same frames, in order. Used by the daemon's
+// lock-step clock (servo/servo_runner.h) and the virtual-bus test rig. Never allocates after
+// construction.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "hal/can_channel.h"
+
+namespace hyq::hal {
+
+class LockstepChannel : public CanChannel {
+ public:
+  static constexpr std::size_t kBufferFrames = 4096;
+
+  explicit LockstepChannel(std::unique_ptr<CanChannel> inner);
+  CanStatus Send(std::span<const CanFrame> frames, std::size_t* sent) noexcept override;
+  CanStatus Receive(std::span<CanFrame> out, std::size_t* received) noexcept override;
+  const CanCounters& counters() const noexcept override { return inner_->counters(); }
+  bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
+  std::string_view name() const noexcept override { return inner_->name(); }
+  int poll_fd() const noexcept override { return inner_->poll_fd(); }
+  CanChannel& inner() noexcept { return *inner_; }
+
+  /// Moves pending frames into the buffer; returns the TPDOs buffered and not yet received.
+  int Pump() noexcept;
+  /// Frames buffered by Pump and not yet received.
+  std::size_t buffered() const noexcept { return tail_ - head_; }
+
+ private:
+  std::unique_ptr<CanChannel> inner_;
+  std::vector<CanFrame> buffer_;
+  std::size_t head_ = 0, tail_ = 0;
+  int tpdos_ = 0;
+};
+
+}  // namespace hyq::hal
