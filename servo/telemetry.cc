@@ -3,6 +3,7 @@
 #include <poll.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -101,6 +102,16 @@ struct Telemetry::Impl {
   hyq_lcm::lcmt_hyq_servo_timing timing{};
   hyq_lcm::lcmt_hyq_health health{};
   hyq_lcm::lcmt_hyq_event event{};
+  // UDP multicast is best effort and a busy subscriber (lcm-logger's receive ring) drops
+  // datagrams: each event is published again with the next two HEALTH messages (consumers
+  // deduplicate on cycle and reason); fixed capacity, the oldest repeats give way
+  struct Repeat {
+    SafetyEvent event;
+    int left = 0;
+  };
+  static constexpr std::size_t kMaxRepeats = 64;
+  std::array<Repeat, kMaxRepeats> repeats{};
+  std::size_t num_repeats = 0;
   std::vector<std::uint8_t> buffer;
   Clock::time_point last_accepted{};
   bool accepted_any = false;
@@ -110,7 +121,7 @@ struct Telemetry::Impl {
   bool DrainOnce();
   void PublishSnapshot(const TelemetrySnapshot& s);
   void PublishHealth(const TelemetrySnapshot& s);
-  void PublishEvent(const SafetyEvent& e);
+  void PublishEvent(const SafetyEvent& e, bool repeat = true);
   template <class M>
   void Publish(const std::string& channel, const M& msg);
   void OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
@@ -404,9 +415,22 @@ void Telemetry::Impl::PublishHealth(const TelemetrySnapshot& s) {
   m.commands_rejected = load(commands_rejected);
   m.commands_dropped = load(commands_dropped);
   Publish(ch_health, m);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < num_repeats; ++i) {
+    PublishEvent(repeats[i].event, false);
+    if (--repeats[i].left > 0) repeats[kept++] = repeats[i];
+  }
+  num_repeats = kept;
 }
 
-void Telemetry::Impl::PublishEvent(const SafetyEvent& e) {
+void Telemetry::Impl::PublishEvent(const SafetyEvent& e, bool repeat) {
+  if (repeat) {
+    if (num_repeats == kMaxRepeats) {  // drop the oldest
+      std::move(repeats.begin() + 1, repeats.end(), repeats.begin());
+      --num_repeats;
+    }
+    repeats[num_repeats++] = {e, 2};
+  }
   hyq_lcm::lcmt_hyq_event& m = event;
   m.utime = e.time_ns / 1000;
   m.cycle = static_cast<std::int64_t>(e.cycle);

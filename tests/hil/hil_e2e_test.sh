@@ -68,6 +68,7 @@ case "$mode" in
     [[ $rc -eq 3 ]] || { tail -20 "$out/servod.log" "$out/sim.log"; fail "expected the daemon to stop in FAULT (exit 3), got $rc"; }
     [[ -s "$out/sim.json" ]] || fail "hyq-sim wrote no summary (did it crash?)"
     grep -q "Segmentation\|Aborted\|terminate called" "$out/servod.log" "$out/sim.log" && fail "a process crashed"
+    "$py" -c "import json; [print('hil_e2e_test: event', e['cycle'], e['time_s'], e['from'], '->', e['to'], e['reason'], e['detail']) for e in json.load(open('$out/servod.json'))['event_log'][:6]]"
     # the first event that left ACTIVE: its reason and how long after the fault it came (the
     # daemon's lock-step time and hyq-sim's simulated time both count SYNC periods from 0)
     check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['reason'] == '$reason'"

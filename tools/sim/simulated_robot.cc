@@ -395,7 +395,8 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
         expirations > 0) {
       // a late wake catches up (at most 10 steps at once), counted as overruns
       counters_.realtime_overruns += expirations - 1;
-      for (std::uint64_t i = 0; i < std::min<std::uint64_t>(expirations, 10); ++i) Step();
+      const std::uint64_t due = std::min<std::uint64_t>({expirations, 10, end_steps - counters_.steps});
+      for (std::uint64_t i = 0; i < due; ++i) Step();
     }
   }
   close(tfd);
