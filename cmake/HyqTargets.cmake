@@ -23,11 +23,15 @@ function(hyq_target_defaults target)
   endif()
 endfunction()
 
-# hyq_add_library(NAME SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...])
-# Creates hyq_NAME with alias hyq::NAME. Headers are included as "NAME/header.h" from the source
-# root when building and from include/hyq when installed.
+# hyq_add_library(NAME SOURCES ... [PUBLIC_DEPS ...] [PRIVATE_DEPS ...] [HEADER_DIR DIR])
+# Creates hyq_NAME with alias hyq::NAME. Headers are included as "DIR/header.h" (DIR defaults to
+# NAME; e.g. servo/control for hyq::servo_control) from the source root when building and from
+# include/hyq when installed.
 function(hyq_add_library name)
-  cmake_parse_arguments(ARG "" "" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  cmake_parse_arguments(ARG "" "HEADER_DIR" "SOURCES;PUBLIC_DEPS;PRIVATE_DEPS" ${ARGN})
+  if(NOT ARG_HEADER_DIR)
+    set(ARG_HEADER_DIR ${name})
+  endif()
   add_library(hyq_${name} ${ARG_SOURCES})
   add_library(hyq::${name} ALIAS hyq_${name})
   set_target_properties(hyq_${name} PROPERTIES EXPORT_NAME ${name} OUTPUT_NAME hyq_${name})
@@ -41,7 +45,7 @@ function(hyq_add_library name)
     ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR}
     LIBRARY DESTINATION ${CMAKE_INSTALL_LIBDIR})
   file(GLOB headers ${CMAKE_CURRENT_SOURCE_DIR}/*.h)
-  install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/hyq/${name})
+  install(FILES ${headers} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/hyq/${ARG_HEADER_DIR})
 endfunction()
 
 # hyq_add_executable(NAME SOURCES ... [DEPS ...]) for tools/: installed to bin/.

@@ -146,7 +146,8 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     const YAML::Node t = r.Map(n, "controller", "two_stage");
     const std::string tp = "controller.two_stage";
     r.Keys(t, tp, {"objective", "horizon_s", "project_contact_velocity", "max_iterations",
-                   "stage2_max_iterations", "time_budget_us", "tangent_directions"});
+                   "stage2_max_iterations", "time_budget_us", "tangent_directions", "stage2",
+                   "null_space_tolerance", "frictionless_mu"});
     auto& s = cc.id;
     if (t["objective"].IsDefined())
       s.objective = r.OneOf(t, tp, "objective", {"maximum_dissipation", "kinetic_energy"}) ==
@@ -158,6 +159,9 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     s.max_iterations = BoundedInt(r, t, tp, "max_iterations", s.max_iterations, 10, 10000);
     s.stage2_max_iterations = BoundedInt(r, t, tp, "stage2_max_iterations", s.stage2_max_iterations, 10, 10000);
     s.tangent_directions = BoundedInt(r, t, tp, "tangent_directions", s.tangent_directions, 4, 4);
+    s.stage2 = BoolOr(r, t, tp, "stage2", s.stage2);  // the stage1 kind turns it off regardless
+    s.null_space_tolerance = Bounded(r, t, tp, "null_space_tolerance", s.null_space_tolerance, 1e-15, 1e-3);
+    s.frictionless_mu = Bounded(r, t, tp, "frictionless_mu", s.frictionless_mu, 0.0, 0.01);
     if (t["time_budget_us"].IsDefined())
       s.time_budget = std::chrono::nanoseconds(static_cast<std::int64_t>(
           1000.0 * Bounded(r, t, tp, "time_budget_us", 0.0, 10.0, 1e6)));
@@ -255,8 +259,10 @@ void ReadRest(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
   {
     const YAML::Node n = Section(r, root, "telemetry");
     const std::string p = "telemetry";
-    r.Keys(n, p, {"enabled", "lcm_url", "channel_prefix", "state_decimation", "timing_decimation",
-                  "health_decimation"});
+    r.Keys(n, p, {"enabled", "lcm_url", "channel_prefix", "joint_state_every",
+                  "joint_torque_every", "base_state_every", "contact_every", "timing_every",
+                  "health_every", "snapshot_queue_capacity", "event_queue_capacity",
+                  "command_queue_capacity", "idle_wait_ms"});
     auto& s = c.telemetry;
     s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
     s.lcm_url = StringOr(r, n, p, "lcm_url", s.lcm_url);
@@ -266,17 +272,62 @@ void ReadRest(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
       r.Fail(n["lcm_url"], "telemetry.lcm_url",
              "an LCM URL udpm://GROUP:PORT?ttl=N, memq:// or file://", "'" + s.lcm_url + "'");
     s.channel_prefix = StringOr(r, n, p, "channel_prefix", s.channel_prefix);
-    s.state_decimation = BoundedInt(r, n, p, "state_decimation", s.state_decimation, 1, 100000);
-    s.timing_decimation = BoundedInt(r, n, p, "timing_decimation", s.timing_decimation, 1, 100000);
-    s.health_decimation = BoundedInt(r, n, p, "health_decimation", s.health_decimation, 1, 100000);
+    // every N cycles (0 = never)
+    const auto every = [&](const char* key, std::uint32_t d) {
+      return static_cast<std::uint32_t>(BoundedInt(r, n, p, key, static_cast<int>(d), 0, 100000));
+    };
+    s.joint_state_every = every("joint_state_every", s.joint_state_every);
+    s.joint_torque_every = every("joint_torque_every", s.joint_torque_every);
+    s.base_state_every = every("base_state_every", s.base_state_every);
+    s.contact_every = every("contact_every", s.contact_every);
+    s.timing_every = every("timing_every", s.timing_every);
+    s.health_every = every("health_every", s.health_every);
+    // queue capacities: powers of two
+    const auto capacity = [&](const char* key, std::size_t d) {
+      const int v = BoundedInt(r, n, p, key, static_cast<int>(d), 2, 1 << 20);
+      if ((v & (v - 1)) != 0)
+        r.Fail(n[key], Path(p, key), "a power of two in [2, 1048576]", Describe(n[key]));
+      return static_cast<std::size_t>(v);
+    };
+    s.snapshot_queue_capacity = capacity("snapshot_queue_capacity", s.snapshot_queue_capacity);
+    s.event_queue_capacity = capacity("event_queue_capacity", s.event_queue_capacity);
+    s.command_queue_capacity = capacity("command_queue_capacity", s.command_queue_capacity);
+    s.idle_wait_ms = BoundedInt(r, n, p, "idle_wait_ms", s.idle_wait_ms, 0, 1000);
   }
   {
     const YAML::Node n = Section(r, root, "commands");
     const std::string p = "commands";
-    r.Keys(n, p, {"enabled", "channel", "max_rate_hz"});
-    c.command.enabled = BoolOr(r, n, p, "enabled", c.command.enabled);
-    c.command.channel = StringOr(r, n, p, "channel", c.command.channel);
-    c.command.max_rate_hz = Bounded(r, n, p, "max_rate_hz", c.command.max_rate_hz, 0.1, 1000.0);
+    r.Keys(n, p, {"enabled", "channel", "max_rate_hz", "mu_min", "mu_max", "gain_scale_min",
+                  "gain_scale_max", "allowed_controllers"});
+    auto& s = c.commands;
+    s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
+    s.channel = StringOr(r, n, p, "channel", s.channel);
+    s.max_rate_hz = Bounded(r, n, p, "max_rate_hz", s.max_rate_hz, 0.1, 1000.0);
+    s.mu_min = Bounded(r, n, p, "mu_min", s.mu_min, 0.0, 10.0);
+    s.mu_max = Bounded(r, n, p, "mu_max", s.mu_max, 0.0, 10.0);
+    if (s.mu_max < s.mu_min)
+      r.Fail(n["mu_max"], Path(p, "mu_max"), "mu_max >= mu_min (" + detail::FormatNumber(s.mu_min) + ")",
+             Describe(n["mu_max"]));
+    s.gain_scale_min = Bounded(r, n, p, "gain_scale_min", s.gain_scale_min, 1e-3, 100.0);
+    s.gain_scale_max = Bounded(r, n, p, "gain_scale_max", s.gain_scale_max, 1e-3, 100.0);
+    if (s.gain_scale_max < s.gain_scale_min)
+      r.Fail(n["gain_scale_max"], Path(p, "gain_scale_max"),
+             "gain_scale_max >= gain_scale_min (" + detail::FormatNumber(s.gain_scale_min) + ")",
+             Describe(n["gain_scale_max"]));
+    if (n["allowed_controllers"].IsDefined()) {
+      const YAML::Node list = n["allowed_controllers"];
+      const std::string lp = Path(p, "allowed_controllers");
+      if (!list.IsSequence())
+        r.Fail(list, lp, "a list of controller names (pid, noslip, stage1, two_stage)", Describe(list));
+      s.allowed_controllers.clear();
+      for (std::size_t i = 0; i < list.size(); ++i) {
+        const std::string ep = lp + "[" + std::to_string(i) + "]";
+        const std::string name = list[i].IsScalar() ? list[i].as<std::string>() : std::string();
+        if (!servo::ParseControllerKind(name))
+          r.Fail(list[i], ep, "one of pid, noslip, stage1, two_stage", Describe(list[i]));
+        s.allowed_controllers.push_back(name);
+      }
+    }
   }
 }
 

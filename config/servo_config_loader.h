@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <string_view>
 
-#include "servo/servo_config.h"
+#include "servo/runtime/servo_config.h"
 
 namespace hyq::config {
 

@@ -9,7 +9,7 @@
 
 #include <benchmark/benchmark.h>
 
-#include "servo/controller.h"
+#include "servo/control/controller.h"
 #include "tests/servo/id_fixture.h"
 #include "tools/sim/experiment.h"
 #include "tests/support/latency_stats.h"

@@ -8,7 +8,7 @@
 #include <Eigen/Dense>
 
 #include "dynamics/cycle_dynamics.h"
-#include "servo/contact_model.h"
+#include "servo/control/contact_model.h"
 #include "tests/dynamics/hyq_fixture.h"
 
 namespace hyq::testing {

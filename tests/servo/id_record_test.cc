@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "servo/id_record.h"
+#include "servo/control/id_record.h"
 #include "tests/servo/id_fixture.h"
 
 namespace hyq::servo {

@@ -6,7 +6,7 @@
 #include <gtest/gtest.h>
 
 #include "dynamics/cycle_dynamics.h"
-#include "servo/reference.h"
+#include "servo/reference/reference.h"
 #include "tests/dynamics/hyq_fixture.h"
 
 namespace hyq::servo {
@@ -23,7 +23,7 @@ void CheckDerivatives(Reference ref, double t_end, const char* name) {
     r0.Sample(t - h, &a);
     r1.Sample(t, &b);
     r2.Sample(t + h, &c);
-    ASSERT_EQ(b.ik, IkStatus::kOk) << name << " at t = " << t;
+    ASSERT_EQ(b.ik, dynamics::IkStatus::kOk) << name << " at t = " << t;
     const VectorJ qd_fd = (c.joints.q - a.joints.q) / (2 * h);
     const VectorJ qdd_fd = (c.joints.qd - a.joints.qd) / (2 * h);
     worst_qd = std::max(worst_qd, (qd_fd - b.joints.qd).cwiseAbs().maxCoeff());
@@ -50,7 +50,7 @@ TEST(Reference, StanceFeetStayPutAndMatchTheModel) {
     double worst_fk = 0, worst_slide = 0;
     for (int k = 0; k < 4000; ++k) {
       ref.Sample(k * 1e-3, &s);
-      ASSERT_EQ(s.ik, IkStatus::kOk) << k;
+      ASSERT_EQ(s.ik, dynamics::IkStatus::kOk) << k;
       VectorQ q = VectorQ::Zero();
       q.head<3>() = s.base.p_W;
       q(3) = 1.0;

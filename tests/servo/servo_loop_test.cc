@@ -8,7 +8,7 @@
 #include <functional>
 #include <string>
 
-#include "servo/servo_loop.h"
+#include "servo/runtime/servo_loop.h"
 #include "tests/servo/servo_rig.h"
 #include "tests/support/no_heap_guard.h"
 
@@ -206,7 +206,7 @@ TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
   mu.mu = {0.1, 0.2, 0.3, 0.4};
   rig.sink.commands.push_back(mu);
   rig.sink.commands.push_back({.kind = ServoCommand::Kind::kSetController,
-                               .controller = static_cast<std::uint8_t>(ControllerKind::kPid)});
+                               .controller = ControllerKind::kPid});
   rig.Steps(2);
   EXPECT_DOUBLE_EQ(rig.sink.last.mu[2], 0.3);
   EXPECT_EQ(rig.loop->controller().kind(), ControllerKind::kPid);
@@ -216,7 +216,7 @@ TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
   // switching the controller while ACTIVE is refused (with an event), the mode stays
   rig.sink.events.clear();
   rig.sink.commands.push_back({.kind = ServoCommand::Kind::kSetController,
-                               .controller = static_cast<std::uint8_t>(ControllerKind::kTwoStageId)});
+                               .controller = ControllerKind::kTwoStageId});
   rig.Steps(2);
   EXPECT_EQ(rig.loop->controller().kind(), ControllerKind::kPid);
   EXPECT_TRUE(rig.sink.HasEvent(EventReason::kCommandRejected));

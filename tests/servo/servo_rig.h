@@ -12,7 +12,7 @@
 #include "hal/emulator.h"
 #include "hal/hal.h"
 #include "hal/loopback_bus.h"
-#include "servo/servo_loop.h"
+#include "servo/runtime/servo_loop.h"
 #include "tests/support/paths.h"
 
 namespace hyq::testing {

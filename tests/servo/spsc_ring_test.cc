@@ -1,4 +1,4 @@
-#include "servo/spsc_ring.h"
+#include "servo/telemetry/spsc_ring.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // servo::Telemetry: what lcm-logger records equals what was pushed; a stalled publisher never
 // stalls Push; the command channel validates and rate-limits; Push/PushEvent/PopCommand never
 // touch the heap. The udpm tests run in their own network namespace (tests/drivers/in_netns.sh).
-#include "servo/telemetry.h"
+#include "servo/telemetry/telemetry.h"
 
 #include <signal.h>
 #include <spawn.h>
@@ -65,8 +65,8 @@ TelemetrySnapshot MakeSnapshot(std::uint64_t cycle) {
   s.time_ns = 1'000'000'000 + static_cast<std::int64_t>(cycle) * 1'000'000;
   s.reference_time_s = c * 1e-3;
   s.mode = ServoMode::kActive;
-  s.controller = 3;
-  for (int j = 0; j < kTelemetryJoints; ++j) {
+  s.controller = ControllerKind::kTwoStageId;
+  for (int j = 0; j < kNumJoints; ++j) {
     s.q_rad[j] = 0.01 * j + 1e-4 * c;
     s.qd_rad_s[j] = -0.5 * j + c;
     s.tau_measured_Nm[j] = 10.0 * j - c;
@@ -75,7 +75,7 @@ TelemetrySnapshot MakeSnapshot(std::uint64_t cycle) {
     s.tau_command_Nm[j] = 3.0 * j + 0.5 * c;
     s.input_status[j] = static_cast<std::uint8_t>((cycle + j) % 5);
   }
-  for (int f = 0; f < kTelemetryFeet; ++f) {
+  for (int f = 0; f < kNumFeet; ++f) {
     s.stance_reference[f] = (cycle + f) % 2;
     s.stance_estimated[f] = 1;
     s.mu[f] = 0.1 * (f + 1);
@@ -204,7 +204,7 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
       ASSERT_EQ(m.utime, s.time_ns / 1000);
       EXPECT_EQ(m.mode, static_cast<int>(ServoMode::kActive));
       EXPECT_DOUBLE_EQ(m.reference_time_s, s.reference_time_s);
-      for (int j = 0; j < kTelemetryJoints; ++j) {
+      for (int j = 0; j < kNumJoints; ++j) {
         ASSERT_EQ(m.q_rad[j], s.q_rad[j]);
         ASSERT_EQ(m.qd_rad_s[j], s.qd_rad_s[j]);
         ASSERT_EQ(m.tau_measured_Nm[j], s.tau_measured_Nm[j]);
@@ -215,12 +215,12 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
     } else if (ev->channel == "HYQ_JOINT_TORQUE") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_joint_torque>(ev->data, static_cast<std::size_t>(ev->datalen));
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
-      for (int j = 0; j < kTelemetryJoints; ++j) ASSERT_EQ(m.tau_command_Nm[j], s.tau_command_Nm[j]);
+      for (int j = 0; j < kNumJoints; ++j) ASSERT_EQ(m.tau_command_Nm[j], s.tau_command_Nm[j]);
       EXPECT_EQ(m.controller, 3);
     } else if (ev->channel == "HYQ_CONTACT") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_contact_state>(ev->data, static_cast<std::size_t>(ev->datalen));
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
-      for (int f = 0; f < kTelemetryFeet; ++f) {
+      for (int f = 0; f < kNumFeet; ++f) {
         ASSERT_EQ(m.stance_reference[f] != 0, s.stance_reference[f] != 0);
         ASSERT_EQ(m.mu[f], s.mu[f]);
         for (int k = 0; k < 3; ++k) ASSERT_EQ(m.contact_force_N[f][k], s.contact_force_N[f][k]);
@@ -526,7 +526,7 @@ TEST_F(CommandChannel, ValidatesAndRateLimits) {
   Send(Command(K::KIND_ENABLE, 9));
   ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
   EXPECT_EQ(got.kind, ServoCommand::Kind::kSetController);
-  EXPECT_EQ(got.controller, 0);  // ControllerKind::kPid
+  EXPECT_EQ(got.controller, ControllerKind::kPid);
   e = NextRejection();
   EXPECT_NE(e.detail.find("seq 9: rate: expected <= 4 Hz"), std::string::npos) << e.detail;
   EXPECT_FALSE(telemetry.PopCommand(&got));

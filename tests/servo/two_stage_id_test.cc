@@ -7,8 +7,8 @@
 
 #include <gtest/gtest.h>
 
-#include "servo/contact_free_id.h"
-#include "servo/controller.h"
+#include "servo/control/contact_free_id.h"
+#include "servo/control/controller.h"
 #include "tests/servo/id_fixture.h"
 #include "tests/support/no_heap_guard.h"
 

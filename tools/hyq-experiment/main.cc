@@ -16,7 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "dynamics/urdf_loader.h"
-#include "servo/id_record.h"
+#include "servo/control/id_record.h"
 #include "tools/sim/experiment.h"
 
 namespace {

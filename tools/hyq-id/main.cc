@@ -10,7 +10,7 @@
 
 #include "dynamics/cycle_dynamics.h"
 #include "dynamics/urdf_loader.h"
-#include "servo/id_record.h"
+#include "servo/control/id_record.h"
 
 namespace {
 

@@ -24,10 +24,12 @@
 #include "config/servo_config_loader.h"
 #include "drivers/channel_factory.h"
 #include "dynamics/urdf_loader.h"
+#include "hal/clock.h"
 #include "hal/hal.h"
-#include "servo/servo_loop.h"
-#include "servo/servo_runner.h"
-#include "servo/telemetry.h"
+#include "servo/runtime/servo_loop.h"
+#include "servo/runtime/realtime_thread.h"
+#include "servo/runtime/servo_runner.h"
+#include "servo/telemetry/telemetry.h"
 
 namespace {
 
@@ -185,7 +187,7 @@ void Override(const Options& o, hyq::servo::ServoConfig& c) {
   if (o.duration) c.duration_s = *o.duration;
   if (o.mu) c.mu = *o.mu;
   if (o.auto_enable) c.auto_enable = true;
-  if (o.commands) c.command.enabled = true;
+  if (o.commands) c.commands.enabled = true;
   if (o.no_telemetry) c.telemetry.enabled = false;
   if (o.lcm_url) c.telemetry.lcm_url = *o.lcm_url;
   hyq::config::ValidateServoConfig(c);
@@ -301,18 +303,7 @@ int main(int argc, char** argv) {
     }
     hal = std::make_unique<hyq::hal::Hal>(config.hal, channels);
     if (config.telemetry.enabled) {
-      hyq::servo::TelemetryConfig tc;
-      tc.lcm_url = config.telemetry.lcm_url;
-      tc.channel_prefix = config.telemetry.channel_prefix;
-      const auto every = static_cast<std::uint32_t>(config.telemetry.state_decimation);
-      tc.joint_state_every = tc.joint_torque_every = tc.base_state_every = tc.contact_every = every;
-      tc.timing_every = static_cast<std::uint32_t>(config.telemetry.timing_decimation);
-      tc.health_every = static_cast<std::uint32_t>(config.telemetry.health_decimation);
-      hyq::servo::CommandChannelConfig cc;
-      cc.enabled = config.command.enabled;
-      cc.channel = config.command.channel;
-      cc.max_rate_hz = config.command.max_rate_hz;
-      telemetry = std::make_unique<hyq::servo::Telemetry>(tc, cc);
+      telemetry = std::make_unique<hyq::servo::Telemetry>(config.telemetry, config.commands);
     }
     loop = std::make_unique<hyq::servo::ServoLoop>(config, *model, *hal, telemetry.get());
   } catch (const std::exception& e) {
@@ -335,7 +326,7 @@ int main(int argc, char** argv) {
     return 1;
   }
 
-  const std::int64_t wall0 = hyq::servo::MonotonicNs();
+  const std::int64_t wall0 = hyq::MonotonicNs();
   std::atomic<bool> servo_done{false};
   std::atomic<bool> rt_ready{false};  // release/acquire: the report is the servo thread's until then
   hyq::servo::RealtimeReport rt;
@@ -346,12 +337,12 @@ int main(int argc, char** argv) {
     if (config.clock == hyq::servo::ClockMode::kLockstep)
       hyq::servo::RunLockstep(*loop, *hal, config, lockstep, start_ns);
     else
-      hyq::servo::RunRealtime(*loop, config, hyq::servo::MonotonicNs());
+      hyq::servo::RunRealtime(*loop, config, hyq::MonotonicNs());
     servo_done.store(true);
   });
 
   bool warned = false, overrun_done = false, stopped_in_fault = false;
-  std::int64_t next_progress = hyq::servo::MonotonicNs() + 1'000'000'000;
+  std::int64_t next_progress = hyq::MonotonicNs() + 1'000'000'000;
   while (!servo_done.load()) {
     const timespec wait{0, 50'000'000};
     const int sig = sigtimedwait(&signals, nullptr, &wait);
@@ -373,7 +364,7 @@ int main(int argc, char** argv) {
       overrun_done = true;
       loop->InjectOverrun(static_cast<std::int64_t>(opt.overrun_us * 1e3), opt.overrun_cycles);
     }
-    if (!opt.quiet && hyq::servo::MonotonicNs() >= next_progress) {
+    if (!opt.quiet && hyq::MonotonicNs() >= next_progress) {
       next_progress += 1'000'000'000;
       std::fprintf(stderr, "hyq-servod: %s, cycle %llu\n", hyq::servo::ToString(mode),
                    static_cast<unsigned long long>(loop->published_cycles()));
@@ -381,7 +372,7 @@ int main(int argc, char** argv) {
   }
   servo.join();
   if (telemetry) telemetry->Stop();  // publishes what is still queued
-  const double wall_s = 1e-9 * static_cast<double>(hyq::servo::MonotonicNs() - wall0);
+  const double wall_s = 1e-9 * static_cast<double>(hyq::MonotonicNs() - wall0);
 
   const nlohmann::json summary = Summary(*loop, config, wall_s);
   if (!opt.summary.empty()) std::ofstream(opt.summary) << summary.dump(2) << "\n";

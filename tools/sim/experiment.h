@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "servo/controller.h"
-#include "servo/reference.h"
+#include "servo/control/controller.h"
+#include "servo/reference/reference.h"
 #include "tools/sim/plant.h"
 
 namespace hyq::sim {

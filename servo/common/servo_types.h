@@ -1,0 +1,118 @@
+// The servo's shared vocabulary: the capacities every module sizes its arrays by, the safety
+// modes and event reasons, the controller kinds and the operator command. Plain fixed-size
+// values: they cross threads through lock-free rings (servo/telemetry/spsc_ring.h) and are turned
+// into LCM messages only on the telemetry thread.
+//
+// Units are in the names: _rad, _rad_s, _Nm, _N, _m, _m_s, _ns, _us. Joint order lf, rf, lh, rh x
+// haa, hfe, kfe; feet lf, rf, lh, rh.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string_view>
+
+#include "dynamics/model.h"
+#include "hal/hal_config.h"
+
+namespace hyq::servo {
+
+using dynamics::VectorJ;
+using dynamics::VectorQ;
+using dynamics::VectorV;
+
+// The HAL and the dynamics each count HyQ's joints and feet; the servo joins them, so they must
+// agree.
+inline constexpr int kNumJoints = hal::kNumJoints;
+inline constexpr int kNumFeet = dynamics::kNumFeet;
+inline constexpr int kMaxBuses = hal::kMaxBuses;
+static_assert(hal::kNumJoints == dynamics::kNumJoints, "hal and dynamics disagree on HyQ's joints");
+static_assert(hal::kNumLegs == dynamics::kNumFeet, "one foot per leg");
+/// Devices in the telemetry's health message (12 joint boards and the IMU, with room).
+inline constexpr int kMaxDevices = 16;
+static_assert(kMaxDevices >= kNumJoints + 1, "every joint board and the IMU");
+/// Characters of an event's detail, NUL included.
+inline constexpr std::size_t kEventDetailSize = 96;
+
+/// The daemon's safety state (servo/runtime/safety_state_machine.h).
+enum class ServoMode : std::uint8_t {
+  kInit,     // bring-up: devices not yet in OP
+  kStandby,  // devices in OP, outputs disabled, zero torque
+  kActive,   // the controller's torques are applied
+  kDamping,  // τ = −D q̇ for a while, then zero torque (controlled stop)
+  kFault,    // zero torque, outputs disabled, until the faults are acknowledged
+  kStopped,  // shut down: devices back to PRE-OP
+};
+const char* ToString(ServoMode m) noexcept;
+
+/// Why the mode changed (or a command was refused): one code per cause.
+enum class EventReason : std::uint16_t {
+  kNone,
+  kBringUpComplete,       // all devices in OP
+  kEnableCommand,         // operator enable (command channel or auto_enable)
+  kDisableCommand,        // operator disable
+  kDampingCommand,
+  kAcknowledge,           // faults acknowledged
+  kStopRequest,           // SIGINT / SIGTERM / duration over
+  kDampingDone,
+  kDeviceFault,           // a device reports a fault or left OP
+  kInputMissing,          // a joint/IMU input missing or stale for too many cycles
+  kBusOff,
+  kCorruptFrames,         // malformed frames on a bus
+  kNonFiniteInput,        // NaN / Inf in a sensor value
+  kOutOfRange,            // position outside the joint range (+ margin), torque/rate implausible
+  kInputJump,             // position jump between cycles larger than physically possible
+  kControllerFailure,     // the controller fell back to "safety" or produced non-finite torque
+  kDeadlineMiss,          // N consecutive deadline misses
+  kEstimatorFailure,      // non-finite or implausible base state
+  kCommandRejected,       // a command on the command channel was refused (detail says why)
+  kCommandApplied,        // a command changed a setting (detail says which)
+  kCount,                 // not a reason: the number of reasons
+};
+inline constexpr std::size_t kNumEventReasons = static_cast<std::size_t>(EventReason::kCount);
+static_assert(kNumEventReasons <= 32, "SafetyStateMachine latches one bit per reason");
+const char* ToString(EventReason r) noexcept;
+
+struct SafetyEvent {
+  std::uint64_t cycle = 0;
+  std::int64_t time_ns = 0;   // CLOCK_MONOTONIC (or virtual time in lock-step)
+  ServoMode from = ServoMode::kInit;
+  ServoMode to = ServoMode::kInit;
+  EventReason reason = EventReason::kNone;
+  std::int16_t joint = -1;    // the joint concerned, −1 when none
+  std::int16_t bus = -1;      // the bus concerned, −1 when none
+  std::array<char, kEventDetailSize> detail{};  // NUL-terminated human-readable detail
+};
+
+/// The joint controllers (servo/control/controller.h).
+enum class ControllerKind : std::uint8_t { kPid, kNoSlipId, kStage1Id, kTwoStageId };
+inline constexpr int kNumControllerKinds = 4;
+const char* ToString(ControllerKind k) noexcept;
+/// "pid", "noslip", "stage1", "two_stage".
+std::optional<ControllerKind> ParseControllerKind(std::string_view name) noexcept;
+
+/// An operator command, validated by the command channel before it reaches the servo thread.
+struct ServoCommand {
+  enum class Kind : std::uint8_t {
+    kEnable,       // STANDBY -> ACTIVE (the only way into ACTIVE besides auto_enable)
+    kDisable,      // ACTIVE -> STANDBY (zero torque)
+    kDamp,         // -> DAMPING
+    kAcknowledge,  // FAULT -> STANDBY once the faults are gone
+    kSetMu,        // friction per foot used by the controller
+    kSetController,
+    kSetGains,     // feedback gains (scaled copies of the configured ones)
+    kRejected,     // a command that failed validation (the servo thread goes to its safe state
+                   // when safety.damp_on_bad_command; the channel published the reason)
+  };
+  Kind kind = Kind::kDisable;
+  std::array<double, kNumFeet> mu{};        // kSetMu
+  ControllerKind controller = ControllerKind::kPid;  // kSetController
+  double kp_scale = 1.0, kd_scale = 1.0;          // kSetGains: multipliers of the configured gains
+  std::uint64_t sequence = 0;                     // the sender's sequence number (echoed in events)
+};
+
+/// "enable", "disable", "damp", "ack", "mu", "controller", "gains", "rejected".
+const char* ToString(ServoCommand::Kind k) noexcept;
+
+}  // namespace hyq::servo

@@ -1,0 +1,18 @@
+#include "servo/control/contact_free_id.h"
+
+namespace hyq::servo {
+
+dynamics::VectorJ ContactFreeId(const dynamics::CycleDynamics& dyn, const dynamics::VectorJ& qdd,
+                                dynamics::Vector6d* a_base) noexcept {
+  const auto h_b = dyn.bias.head<dynamics::kNumBaseDofs>();
+  const auto h_q = dyn.bias.tail<dynamics::kNumJoints>();
+  dynamics::VectorJ tau = dyn.inv.F_inv * qdd + h_q;
+  tau.noalias() -= dyn.inv.A_inv_B.transpose() * h_b;
+  if (a_base != nullptr) {
+    *a_base = -(dyn.inv.A_inv_B * qdd);
+    a_base->noalias() -= dyn.inv.A_inv * h_b;
+  }
+  return tau;
+}
+
+}  // namespace hyq::servo

@@ -1,0 +1,67 @@
+#include "servo/control/controller.h"
+
+namespace hyq::servo {
+namespace {
+
+TwoStageSettings Stage1Only(TwoStageSettings s) {
+  s.stage2 = false;
+  return s;
+}
+TwoStageSettings WithStage2(TwoStageSettings s) {
+  s.stage2 = true;
+  return s;
+}
+dynamics::VectorJ EffortLimits(const dynamics::Model& m) {
+  dynamics::VectorJ e;
+  for (int j = 0; j < dynamics::kNumJoints; ++j) e(j) = m.limits[j].effort_Nm;
+  return e;
+}
+
+}  // namespace
+
+Controller::Controller(const dynamics::Model& model, const ControllerConfig& config)
+    : model_(model),
+      config_(config),
+      pid_(config.pid, EffortLimits(model)),
+      stage1_(Stage1Only(config.id)),
+      two_stage_(WithStage2(config.id)) {}
+
+void Controller::SetKind(ControllerKind kind) noexcept {
+  if (kind == config_.kind) return;
+  config_.kind = kind;
+  pid_.Reset();
+  stage1_.Reset();
+  two_stage_.Reset();
+}
+
+IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& q,
+                             const VectorV& v, const JointReference& ref,
+                             const ContactEnvironment& env, double dt, IdOutput* out) noexcept {
+  const auto qj = q.tail<dynamics::kNumJoints>();
+  const auto vj = v.tail<dynamics::kNumJoints>();
+  if (config_.kind == ControllerKind::kPid) {
+    *out = IdOutput{};
+    out->tau_Nm = pid_.Compute(qj, vj, ref.q, ref.qd, dt);
+    return IdStatus::kOk;
+  }
+  const FeedbackGains& g = config_.feedback;
+  input_.q = q;
+  input_.v = v;
+  input_.qdd_des = ref.qdd + g.kp_acc.cwiseProduct(ref.q - qj) + g.kd_acc.cwiseProduct(ref.qd - vj);
+  input_.stance = ref.stance;
+  input_.mu = env.mu;
+  input_.normal_W = env.normal_W;
+  input_.dt = config_.id.horizon_s > 0.0 ? config_.id.horizon_s : dt;
+  IdStatus st = IdStatus::kBadInput;
+  switch (config_.kind) {
+    case ControllerKind::kNoSlipId: st = noslip_.Solve(model_, dyn, input_, out); break;
+    case ControllerKind::kStage1Id: st = stage1_.Solve(model_, dyn, input_, out); break;
+    case ControllerKind::kTwoStageId: st = two_stage_.Solve(model_, dyn, input_, out); break;
+    case ControllerKind::kPid: break;
+  }
+  if (st != IdStatus::kBadInput)
+    out->tau_Nm += g.kp_tau.cwiseProduct(ref.q - qj) + g.kd_tau.cwiseProduct(ref.qd - vj);
+  return st;
+}
+
+}  // namespace hyq::servo

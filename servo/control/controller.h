@@ -1,0 +1,86 @@
+// One interface for every joint controller, so the controller is a choice in configuration:
+// PID, the non-slipping floating-base ID (Mistry et al. 2010), Stage I only, and the two-stage
+// ID (Zapolsky et al.). What each one adds to the reference (docs/inverse_dynamics.md, "Feedback"):
+//
+//   PID:        τ = PID(q_ref − q, q̇_ref − q̇)                       (PidGains, torque units)
+//   ID kinds:   q̈_des = q̈_ref + Kp (q_ref − q) + Kd (q̇_ref − q̇)     (FeedbackGains, 1/s², 1/s)
+//               τ = ID(q, v, q̈_des, stance, μ) + Kp_τ (q_ref − q) + Kd_τ (q̇_ref − q̇)
+//
+// The three ID controllers share the same q̈_des and the same optional PD torque, so their
+// comparison is fair; the PD torque gains are zero unless configured.
+#pragma once
+
+#include <optional>
+#include <string_view>
+
+#include "servo/common/servo_types.h"
+#include "servo/control/noslip_id.h"
+#include "servo/control/pid_controller.h"
+#include "servo/control/two_stage_id.h"
+
+namespace hyq::servo {
+
+struct FeedbackGains {
+  dynamics::VectorJ kp_acc = dynamics::VectorJ::Zero();  // 1/s²
+  dynamics::VectorJ kd_acc = dynamics::VectorJ::Zero();  // 1/s
+  dynamics::VectorJ kp_tau = dynamics::VectorJ::Zero();  // N·m/rad (added PD torque)
+  dynamics::VectorJ kd_tau = dynamics::VectorJ::Zero();  // N·m·s/rad
+};
+
+struct ControllerConfig {
+  ControllerKind kind = ControllerKind::kTwoStageId;
+  FeedbackGains feedback;
+  PidGains pid;
+  TwoStageSettings id;  // stage2 is forced off for kStage1Id
+};
+
+/// The joint reference of one cycle and the contact situation it assumes.
+struct JointReference {
+  dynamics::VectorJ q = dynamics::VectorJ::Zero();
+  dynamics::VectorJ qd = dynamics::VectorJ::Zero();
+  dynamics::VectorJ qdd = dynamics::VectorJ::Zero();
+  std::array<bool, kNumFeet> stance{true, true, true, true};
+};
+
+struct ContactEnvironment {
+  std::array<double, kNumFeet> mu{1.0, 1.0, 1.0, 1.0};
+  std::array<Eigen::Vector3d, kNumFeet> normal_W{Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ(),
+                                                 Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()};
+};
+
+class Controller {
+ public:
+  /// Builds every controller kind up front (QP workspaces included), so switching at run time
+  /// allocates nothing.
+  Controller(const dynamics::Model& model, const ControllerConfig& config);
+
+  /// One cycle: `dyn` = ComputeCycleDynamics(model, q, v). Fills out->tau_Nm (and, for the ID
+  /// kinds, the impulses and stage reports). Never throws or allocates.
+  IdStatus Compute(const dynamics::CycleDynamics& dyn, const VectorQ& q, const VectorV& v,
+                   const JointReference& ref, const ContactEnvironment& env, double dt,
+                   IdOutput* out) noexcept;
+
+  /// The ID input of the last Compute (for recording ID problem files).
+  const IdInput& last_input() const noexcept { return input_; }
+
+  ControllerKind kind() const noexcept { return config_.kind; }
+  void SetKind(ControllerKind kind) noexcept;
+  void SetFeedback(const FeedbackGains& g) noexcept { config_.feedback = g; }
+  void SetPidGains(const PidGains& g) noexcept { pid_.set_gains(g); }
+  const ControllerConfig& config() const noexcept { return config_; }
+  const FallbackCounters& two_stage_counters() const noexcept { return two_stage_.counters(); }
+  const FallbackCounters& stage1_counters() const noexcept { return stage1_.counters(); }
+  const FallbackCounters& noslip_counters() const noexcept { return noslip_.counters(); }
+  const TwoStageId& two_stage() const noexcept { return two_stage_; }
+
+ private:
+  const dynamics::Model& model_;
+  ControllerConfig config_;
+  PidController pid_;
+  NoSlipId noslip_;
+  TwoStageId stage1_;
+  TwoStageId two_stage_;
+  IdInput input_;
+};
+
+}  // namespace hyq::servo

@@ -1,0 +1,343 @@
+#include "servo/control/two_stage_id.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/QR>
+#include <Eigen/SVD>
+
+#include "servo/control/contact_free_id.h"
+
+namespace hyq::servo {
+namespace {
+
+constexpr int kB = dynamics::kNumBaseDofs;
+constexpr int kJ = dynamics::kNumJoints;
+
+double KineticEnergy(const dynamics::CycleDynamics& dyn, const VectorV& v) {
+  return 0.5 * v.dot(dyn.M * v);
+}
+
+// The contact-free answer: τ = f_ID, v* = v + h [a_b; q̈_des].
+void ContactFreeAnswer(const dynamics::CycleDynamics& dyn, const IdInput& in,
+                       const VectorJ& f_id, const dynamics::Vector6d& a_b, IdOutput* out) {
+  out->tau_Nm = f_id;
+  out->v_star = in.v;
+  out->v_star.head<kB>() += in.dt * a_b;
+  out->v_star.tail<kJ>() += in.dt * in.qdd_des;
+  out->kinetic_energy_J = KineticEnergy(dyn, out->v_star);
+  for (auto& c : out->impulses) c = ContactImpulse{};
+}
+
+}  // namespace
+
+const char* ToString(Fallback f) noexcept {
+  switch (f) {
+    case Fallback::kNone: return "none";
+    case Fallback::kStage1Torque: return "stage1_torque";
+    case Fallback::kContactFreeId: return "contact_free_id";
+    case Fallback::kSafety: return "safety";
+  }
+  return "unknown";
+}
+
+const char* ToString(StageOneObjective o) noexcept {
+  switch (o) {
+    case StageOneObjective::kMaximumDissipation: return "maximum_dissipation";
+    case StageOneObjective::kKineticEnergy: return "kinetic_energy";
+  }
+  return "unknown";
+}
+
+const char* ToString(IdStatus s) noexcept {
+  switch (s) {
+    case IdStatus::kOk: return "ok";
+    case IdStatus::kFallback: return "fallback";
+    case IdStatus::kBadInput: return "bad_input";
+  }
+  return "unknown";
+}
+
+TwoStageId::TwoStageId(const TwoStageSettings& settings) : settings_(settings) {
+  // combinations of the r tangent directions d_k = (cos θ_k, sin θ_k) that sum to zero: the
+  // null space of the 2 × r matrix [cos; sin], orthonormal (configuration time, may allocate)
+  const int r = std::clamp(settings_.tangent_directions, 1, kMaxTangents);
+  Eigen::MatrixXd T(2, r);
+  for (int k = 0; k < r; ++k) T.col(k) << std::cos(2 * M_PI * k / r), std::sin(2 * M_PI * k / r);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(T, Eigen::ComputeFullV);
+  const int rank = static_cast<int>((svd.singularValues().array() > 1e-9).count());
+  tangent_null_ = svd.matrixV().rightCols(r - rank);
+}
+
+void TwoStageId::Reset() noexcept { have_last_ = false; }
+
+qp::Budget TwoStageId::MakeBudget(bool warm, int max_iterations) const noexcept {
+  qp::Budget b;
+  b.max_iterations = max_iterations;
+  b.warm_start = warm;
+  if (settings_.time_budget)
+    b.deadline = std::chrono::steady_clock::now() +
+                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(*settings_.time_budget);
+  return b;
+}
+
+IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
+                           const IdInput& in, IdOutput* out) noexcept {
+  ++counters_.calls;
+  *out = IdOutput{};
+  if (!in.qdd_des.allFinite() || !in.v.allFinite() || !(in.dt > 0.0) || !std::isfinite(in.dt) ||
+      BuildContactSet(model, dyn.feet, in, settings_.tangent_directions, &set_) !=
+          ContactStatus::kOk) {
+    ++counters_.bad_input;
+    out->fallback = Fallback::kSafety;
+    have_last_ = false;
+    return IdStatus::kBadInput;
+  }
+  const double h = in.dt;
+  dynamics::Vector6d a_b;
+  const VectorJ f_id = ContactFreeId(dyn, in.qdd_des, &a_b);
+
+  // zero stance feet: the contact-free floating-base ID is the answer
+  if (set_.count == 0) {
+    ++counters_.no_contact;
+    ContactFreeAnswer(dyn, in, f_id, a_b, out);
+    have_last_ = false;
+    return IdStatus::kOk;
+  }
+
+  if (settings_.project_contact_velocity) {
+    // v ← v − M⁻¹J_cᵀ (J_c M⁻¹ J_cᵀ)⁻¹ J_c v: the velocity an inelastic impact of the stance
+    // contacts would leave (M-orthogonal projection onto J_c v = 0), so the method does not try
+    // to absorb, within h, contact-point velocities the rigid-contact model cannot have
+    const int rows = 3 * set_.count;
+    Eigen::Matrix<double, dynamics::kNv, Eigen::Dynamic, Eigen::ColMajor, dynamics::kNv, 12> MiJt(
+        dynamics::kNv, rows);
+    Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> Jv(rows);
+    for (int i = 0; i < set_.count; ++i) {
+      Jv.segment<3>(3 * i) = set_.J_c[i] * in.v;
+      for (int a = 0; a < 3; ++a) {
+        VectorV col = set_.J_c[i].row(a).transpose();
+        dynamics::SolveInPlace(dyn.factor, &col);
+        MiJt.col(3 * i + a) = col;
+      }
+    }
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12> G(rows, rows);
+    for (int i = 0; i < set_.count; ++i)
+      G.middleRows<3>(3 * i).noalias() = set_.J_c[i] * MiJt;
+    proj_llt_.compute(G);
+    consistent_ = in;
+    if (proj_llt_.info() == Eigen::Success) {
+      const Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> lam = proj_llt_.solve(Jv);
+      consistent_.v.noalias() -= MiJt * lam;
+    }
+    RunStage1(dyn, consistent_, f_id);
+  } else {
+    RunStage1(dyn, in, f_id);
+  }
+  out->stage1 = {true, s1_.status, s1_.objective, s1_.iterations, s1_.solve_time_s};
+  if (s1_.status != qp::Status::kOptimal) {
+    ++counters_.stage1_failed;
+    ContactFreeAnswer(dyn, in, f_id, a_b, out);
+    out->fallback = Fallback::kContactFreeId;
+    have_last_ = false;
+    return IdStatus::kFallback;
+  }
+  last_stance_ = in.stance;
+  have_last_ = true;
+
+  // x = (F⁻¹(v*_q − k) − G z)/h,  τ = f_ID + x   (19)
+  const auto z = s1_.x.head(set_.num_impulses());
+  VectorJ x = dyn.inv.F_inv * (v_star_q_ - k_);
+  x.noalias() -= G_ * z;
+  out->tau_Nm = f_id + x / h;
+  // v*_b = Z z + p   (23)
+  out->v_star.head<kB>() = p_;
+  out->v_star.head<kB>().noalias() += Z_ * z;
+  out->v_star.tail<kJ>() = v_star_q_;
+  out->kinetic_energy_J = KineticEnergy(dyn, out->v_star);
+  ImpulsesFromZ(set_, s1_.x, &out->impulses);
+
+  if (settings_.stage2 && !RunStage2(h, out)) {
+    ++counters_.stage2_failed;
+    out->fallback = Fallback::kStage1Torque;
+    return IdStatus::kFallback;
+  }
+  return IdStatus::kOk;
+}
+
+void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in,
+                           const VectorJ& f_id) noexcept {
+  const double h = in.dt;
+  const int nz = set_.num_impulses();
+  const int nc = set_.count;
+  const auto R_b = set_.R.topRows<kB>();
+  const auto R_q = set_.R.bottomRows<kJ>();
+
+  // j, k (15, 16): [j; k] = v + M⁻¹ h (f_ext + [0; f_ID]),  f_ext = −h_bias
+  VectorV w = -h * dyn.bias;
+  w.tail<kJ>() += h * f_id;
+  dynamics::SolveInPlace(dyn.factor, &w);
+  const dynamics::Vector6d j = in.v.head<kB>() + w.head<kB>();
+  k_ = in.v.tail<kJ>() + w.tail<kJ>();
+  v_star_q_ = in.v.tail<kJ>() + h * in.qdd_des;  // (5)
+
+  // Z = A⁻¹ R_b (21),  p = j − A⁻¹B (v*_q − k) (22),  G = R_q − (A⁻¹B)ᵀ R_b  (19)
+  Z_.noalias() = dyn.inv.A_inv.lazyProduct(R_b);
+  p_ = j;
+  p_.noalias() -= dyn.inv.A_inv_B * (v_star_q_ - k_);
+  G_ = R_q;
+  G_.noalias() -= dyn.inv.A_inv_B.transpose().lazyProduct(R_b);
+
+  // (27): H = ZᵀAZ = (L⁻¹R_b)ᵀ(L⁻¹R_b) with A = L Lᵀ (exactly symmetric, PSD by construction)
+  p1_.Resize(nz, 2 * nc);
+  dynamics::Matrix6d L_inv = dynamics::Matrix6d::Identity();
+  dyn.factor.llt_A.matrixL().solveInPlace(L_inv);
+  const Eigen::Matrix<double, kB, Eigen::Dynamic, Eigen::ColMajor, kB, kMaxImpulses> Y =
+      L_inv.lazyProduct(R_b);
+  p1_.H.noalias() = Y.transpose().lazyProduct(Y);
+  if (settings_.objective == StageOneObjective::kKineticEnergy) {
+    // g = ZᵀA p + ZᵀB v*_q = R_bᵀ (p + A⁻¹B v*_q)   (27 as printed)
+    dynamics::Vector6d pg = p_;
+    pg.noalias() += dyn.inv.A_inv_B * v_star_q_;
+    p1_.g.noalias() = R_b.transpose() * pg;
+  } else {
+    // g = R_bᵀ p + R_qᵀ v*_q: then H z + g = R_bᵀ (Z z + p) + R_qᵀ v*_q = Rᵀ v*
+    p1_.g.noalias() = R_b.transpose() * p_;
+    p1_.g.noalias() += R_q.transpose() * v_star_q_;
+  }
+  p1_.lb.setZero();  // (29); ub stays +inf
+  for (int i = 0; i < nc; ++i) {
+    if (set_.mu[i] <= settings_.frictionless_mu)
+      for (int k = 0; k < set_.tangents; ++k) p1_.ub(set_.TangentIndex(i, k)) = 0.0;
+  }
+  for (int i = 0; i < nc; ++i) {
+    // (28): N_iᵀ v* = N_b,iᵀ (Z z + p) + N_q,iᵀ v*_q ≥ 0
+    const int ni = set_.NormalIndex(i);
+    p1_.A.row(i).noalias() = R_b.col(ni).transpose() * Z_;
+    p1_.lbA(i) = -(R_b.col(ni).dot(p_) + R_q.col(ni).dot(v_star_q_));
+    // (30): μ_i c_N,i − Σ_k c_D,ik ≥ 0
+    p1_.A(nc + i, ni) = set_.mu[i];
+    for (int k = 0; k < set_.tangents; ++k) p1_.A(nc + i, set_.TangentIndex(i, k)) = -1.0;
+    p1_.lbA(nc + i) = set_.mu[i] <= settings_.frictionless_mu ? -qp::kInf : 0.0;  // implied
+  }
+  const bool warm = have_last_ && last_stance_ == in.stance;
+  const qp::Status st = solver1_.Solve(p1_, MakeBudget(warm, settings_.max_iterations), &s1_);
+  (void)st;  // s1_.status carries it
+}
+
+bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
+  const int nz = set_.num_impulses();
+  const int nc = set_.count;
+  const auto z = s1_.x.head(nz);
+
+  if (!BuildNullSpace()) {
+    out->stage2 = {false, qp::Status::kOptimal, 0.5 * out->tau_Nm.squaredNorm(), 0, 0.0};
+    return true;  // nothing to redistribute: Stage I's answer is the only one
+  }
+  const auto P = P_.leftCols(null_dim_);
+
+  // min ½ ‖h τ_I − G P w‖² (h² × eq 7, same minimiser) s.t. z + P w ≥ 0, friction rows (8)
+  GP_.noalias() = G_.lazyProduct(P);
+  p2_.Resize(null_dim_, nz + nc);
+  p2_.H.noalias() = GP_.transpose().lazyProduct(GP_);
+  p2_.g.noalias() = -(GP_.transpose() * (h * out->tau_Nm));
+  // w = 0 must be exactly feasible: Stage I's z meets z ≥ 0 and the friction rows only to the
+  // solver's tolerance, so the right-hand sides are clamped at 0
+  p2_.A.topRows(nz) = P;
+  p2_.lbA.head(nz) = (-z).cwiseMin(0.0);
+  for (int i = 0; i < nc; ++i) {
+    const int ni = set_.NormalIndex(i);
+    double slack = set_.mu[i] * z(ni);
+    p2_.A.row(nz + i) = set_.mu[i] * P.row(ni);
+    for (int k = 0; k < set_.tangents; ++k) {
+      const int ti = set_.TangentIndex(i, k);
+      p2_.A.row(nz + i) -= P.row(ti);
+      slack -= z(ti);
+    }
+    p2_.lbA(nz + i) = std::min(-slack, 0.0);
+    if (set_.mu[i] <= settings_.frictionless_mu) {
+      // P keeps this contact's tangential impulses at 0: their rows and the friction row hold
+      p2_.lbA(nz + i) = -qp::kInf;
+      for (int k = 0; k < set_.tangents; ++k) p2_.lbA(set_.TangentIndex(i, k)) = -qp::kInf;
+    }
+  }
+  const bool warm = last_null_dim_ == null_dim_ && have_last_;
+  last_null_dim_ = null_dim_;
+  const qp::Status st = solver2_.Solve(p2_, MakeBudget(warm, settings_.stage2_max_iterations), &s2_);
+  out->stage2 = {true, st, 0.0, s2_.iterations, s2_.solve_time_s};
+  if (st != qp::Status::kOptimal) {
+    last_null_dim_ = -1;
+    return false;
+  }
+  // z_II = z + P w,  τ_II = τ_I − G P w / h; v* (and so the kinetic energy) is unchanged
+  const auto w = s2_.x.head(null_dim_);
+  out->tau_Nm.noalias() -= GP_ * w / h;
+  qp::VectorN z2 = z;
+  z2.noalias() += P * w;
+  ImpulsesFromZ(set_, z2, &out->impulses);
+  out->stage2.objective = 0.5 * out->tau_Nm.squaredNorm();
+  return true;
+}
+
+bool TwoStageId::BuildNullSpace() noexcept {
+  const int nc = set_.count;
+  const int r = set_.tangents;
+  const int nz = set_.num_impulses();
+  // internal forces: F with Σ_i J_c,i,bᵀ f_i = 0, from the QR of Wᵀ; a frictionless contact
+  // contributes only its normal (one row n_iᵀ J_c,i,b), the others all three directions
+  std::array<int, kMaxContacts> first_row{};
+  int rows = 0;
+  for (int i = 0; i < nc; ++i) rows += set_.mu[i] <= settings_.frictionless_mu ? 1 : 3;
+  Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor, kMaxForceRows, 6> Wt(rows, 6);
+  rows = 0;
+  for (int i = 0; i < nc; ++i) {
+    first_row[i] = rows;
+    if (set_.mu[i] <= settings_.frictionless_mu) {
+      Wt.row(rows++) = set_.normal_W[i].transpose() * set_.J_c[i].leftCols<kB>();
+    } else {
+      Wt.middleRows<3>(rows) = set_.J_c[i].leftCols<kB>();
+      rows += 3;
+    }
+  }
+  qr_.setThreshold(settings_.null_space_tolerance);
+  qr_.compute(Wt);
+  const int internal = rows - static_cast<int>(qr_.rank());
+  const int cancelling = static_cast<int>(tangent_null_.cols());
+  int frictional = 0;
+  for (int i = 0; i < nc; ++i) frictional += set_.mu[i] > settings_.frictionless_mu;
+  // with fewer than three directions a tangent force cannot always be written in them
+  const bool liftable = r >= 3;
+  null_dim_ = (liftable ? internal : 0) + frictional * cancelling;
+  if (null_dim_ == 0) return false;
+  P_.setZero(nz, null_dim_);
+  int col = 0;
+  if (liftable && internal > 0) {
+    // the trailing columns of Q only: Q [0; I] (cheaper than evaluating all of Q)
+    Qw_.setZero(rows, internal);
+    Qw_.bottomRows(internal).setIdentity();
+    qr_.householderQ().applyThisOnTheLeft(Qw_);
+    // f_i = a n + b t1 + c t2 lifts to z_N = a, z_D,k = (2/r)(b cos θ_k + c sin θ_k)
+    for (int j = 0; j < internal; ++j, ++col) {
+      const auto f = Qw_.col(j);
+      for (int i = 0; i < nc; ++i) {
+        if (set_.mu[i] <= settings_.frictionless_mu) {
+          P_(set_.NormalIndex(i), col) = f(first_row[i]);
+          continue;
+        }
+        const Eigen::Vector3d fi = f.segment<3>(first_row[i]);
+        P_(set_.NormalIndex(i), col) = set_.normal_W[i].dot(fi);
+        const double b = set_.t1_W[i].dot(fi), c = set_.t2_W[i].dot(fi);
+        for (int k = 0; k < r; ++k)
+          P_(set_.TangentIndex(i, k), col) = 2.0 / r * (b * set_.cos_k[k] + c * set_.sin_k[k]);
+      }
+    }
+  }
+  for (int i = 0; i < nc; ++i) {
+    if (set_.mu[i] <= settings_.frictionless_mu) continue;
+    for (int j = 0; j < cancelling; ++j, ++col)
+      for (int k = 0; k < r; ++k) P_(set_.TangentIndex(i, k), col) = tangent_null_(k, j);
+  }
+  return true;
+}
+
+}  // namespace hyq::servo

@@ -1,0 +1,155 @@
+// The two-stage contact-aware inverse dynamics of Zapolsky, Drumwright, Havoutis, Buchli and
+// Semini, "Inverse Dynamics for a Quadruped Robot Locomoting Along Slippery Surfaces" (2015).
+//
+// Stage I (eqs 10–30). With the contact-free torques f_ID (servo/contact_free_id.h), the external
+// forces f_ext = −h, and M = [A B; Bᵀ C], M⁻¹ = [D E; Eᵀ F] (13, 14):
+//   j = v_b + [D E](h f_ext + [0; h f_ID]),  k = v_q + [Eᵀ F](h f_ext + [0; h f_ID])   (15, 16)
+//   Z = ([D E] − E F⁻¹ [Eᵀ F]) R = A⁻¹ R_b,   p = j + E F⁻¹(v*_q − k) = j − A⁻¹B (v*_q − k)
+//                                                                                   (21, 22)
+// (the right-hand forms follow from the Schur complement identities; docs/inverse_dynamics.md),
+// v*_b = Z z + p (23), and the QP in the impulses z
+//   min ½ zᵀ ZᵀAZ z + zᵀ(ZᵀA p + ZᵀB v*_q)                                         (27)
+//   s.t. Nᵀ v* ≥ 0 (28),  z ≥ 0 (29),  μ_i c_N,i − Σ_k c_D,ik ≥ 0 (30)
+// with v*_q = q̇ + h q̈_des fixed (5). ZᵀAZ = R_bᵀ A⁻¹ R_b has rank ≤ 6: the QP solver handles
+// the singular Hessian (qp/solver.h). The torque is recovered by (19):
+//   x = F⁻¹(v*_q − k − [Eᵀ F] R z)/h = (F⁻¹(v*_q − k) − G z)/h,  G = R_q − (A⁻¹B)ᵀ R_b,
+//   τ = f_ID + x.
+//
+// The linear term: eq 27 as printed makes ½ v*ᵀ M v* the objective; with the joints' v*_q
+// prescribed that is not the maximal-dissipation principle the paper invokes (its gradient is not
+// the contact velocity), and feet slide even on sticky ground. By default we keep the Hessian
+// and use g = R_bᵀ p + R_qᵀ v*_q, whose gradient H z + g = Rᵀ v* is the contact velocity
+// (StageOneObjective; derivation in docs/inverse_dynamics.md).
+//
+// Stage II (eqs 7–9). Every z + P w with P = null(Z) = null(R_b) gives the same v*, so the same
+// kinetic energy (9), the same contact-point velocities and the same non-penetration rows: the
+// motion is unchanged, only the impulses are redistributed. Among them,
+//   min ½ ‖τ(z + P w)‖² = ½ ‖τ_I − G P w / h‖²   s.t.  z + P w ≥ 0, friction rows.
+// (The paper's eq 7 minimises ‖τ‖; its authors' code minimised ‖τ − f_ID‖.)
+//
+// Fallbacks, each counted (FallbackCounters), never an exception or an allocation:
+// Stage II fails → Stage I's torque; Stage I fails → contact-free ID; bad input → kSafety.
+// Zero stance feet: the contact-free ID is the answer.
+#pragma once
+
+#include <chrono>
+#include <optional>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+
+#include "dynamics/cycle_dynamics.h"
+#include "qp/solver.h"
+#include "servo/control/contact_model.h"
+
+namespace hyq::servo {
+
+/// The linear term of the Stage I QP (docs/inverse_dynamics.md, "Stage I objective").
+enum class StageOneObjective : std::uint8_t {
+  /// g = R_bᵀ p + R_qᵀ v*_q: the gradient of the objective is the contact-point velocity Rᵀv*,
+  /// so the KKT conditions are those of maximal dissipation (a contact inside its friction cone
+  /// sticks). Default.
+  kMaximumDissipation,
+  /// g = ZᵀA p + ZᵀB v*_q, eq 27 as printed (½ v*ᵀ M v* with v*_q fixed): it drives the base
+  /// towards zero momentum and lets feet slide even on high friction.
+  kKineticEnergy,
+};
+const char* ToString(StageOneObjective o) noexcept;
+
+struct TwoStageSettings {
+  StageOneObjective objective = StageOneObjective::kMaximumDissipation;
+  /// The h of eqs 5–6 used by the controllers (servo/controller.h), s; 0: the control period.
+  /// The method corrects contact-point velocities within h, so h = 1 ms makes a very stiff
+  /// loop on compliant contact (docs/inverse_dynamics.md, "Horizon").
+  double horizon_s = 0.0;
+  /// Project the measured v M-orthogonally onto J_c v = 0 (what an inelastic impact of the
+  /// stance contacts would leave) before Stage I, so that the method does not try to cancel,
+  /// within h, contact-point velocities that the rigid-contact model says cannot exist (on a
+  /// compliant ground they would make a deadbeat loop of gain 1/h: docs/inverse_dynamics.md,
+  /// "Measured contact velocities"). A no-op when v is already contact-consistent.
+  bool project_contact_velocity = true;
+  int tangent_directions = 4;   // r
+  bool stage2 = true;           // false: the paper's "Stage I only" (Fig. 1)
+  int max_iterations = 500;     // Stage I QP (degenerate near-frictionless cases need ~150)
+  int stage2_max_iterations = 500;
+  /// Wall-clock budget per QP (none by default; the servo loop sets one).
+  std::optional<std::chrono::nanoseconds> time_budget;
+  double null_space_tolerance = 1e-9;  // relative, rank decision for the internal forces
+  /// A contact with μ at or below this is frictionless: its tangential impulses are fixed at 0
+  /// (instead of being squeezed to 0 by nearly dependent friction rows).
+  double frictionless_mu = 1e-6;
+};
+
+enum class [[nodiscard]] IdStatus : std::uint8_t { kOk, kFallback, kBadInput };
+const char* ToString(IdStatus s) noexcept;
+
+class TwoStageId {
+ public:
+  /// Allocates the QP workspaces (configuration time).
+  explicit TwoStageId(const TwoStageSettings& settings = {});
+
+  /// Solves one ID problem. `dyn` must be ComputeCycleDynamics(model, in.q, in.v). Returns kOk
+  /// when the torque is the method's own answer, kFallback when a fallback produced it (see
+  /// out->fallback), kBadInput when nothing usable could be computed (out->tau is zero and
+  /// out->fallback is kSafety). Never throws or allocates.
+  IdStatus Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
+                 const IdInput& in, IdOutput* out) noexcept;
+
+  const FallbackCounters& counters() const noexcept { return counters_; }
+  const TwoStageSettings& settings() const noexcept { return settings_; }
+  /// The last Stage I / Stage II problems (for recording QP instances and for tests).
+  const qp::Problem& stage1_problem() const noexcept { return p1_; }
+  const qp::Problem& stage2_problem() const noexcept { return p2_; }
+  const ContactSet& contacts() const noexcept { return set_; }
+  /// Forget the warm-start state (e.g. after a controller switch).
+  void Reset() noexcept;
+
+ private:
+  void RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in,
+                 const VectorJ& f_id) noexcept;
+  bool RunStage2(double h, IdOutput* out) noexcept;
+  qp::Budget MakeBudget(bool warm, int max_iterations) const noexcept;
+
+  TwoStageSettings settings_;
+  ContactSet set_;
+  std::array<bool, kNumFeet> last_stance_{};
+  bool have_last_ = false;
+
+  // Stage I data (sizes n_z = set_.num_impulses())
+  Eigen::Matrix<double, 6, Eigen::Dynamic, Eigen::ColMajor, 6, kMaxImpulses> Z_;
+  Eigen::Matrix<double, dynamics::kNumJoints, Eigen::Dynamic, Eigen::ColMajor,
+                dynamics::kNumJoints, kMaxImpulses> G_;   // R_q − (A⁻¹B)ᵀ R_b
+  dynamics::Vector6d p_;
+  VectorJ v_star_q_, k_;
+  qp::Problem p1_;
+  qp::Solution s1_;
+  qp::Solver solver1_;
+
+  // Stage II data. null(R_b) = lifted internal forces (null of the 6 × 3n base-wrench map,
+  // from a QR of its transpose) + per contact the r − 2 combinations of tangent directions that
+  // cancel (fixed for a given r: tangent_null_)
+  static constexpr int kMaxForceRows = 3 * kMaxContacts;
+  Eigen::ColPivHouseholderQR<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor,
+                                           kMaxForceRows, 6>> qr_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxForceRows,
+                kMaxForceRows> Qw_;
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxTangents,
+                kMaxTangents> tangent_null_;  // r × (r − 2)
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxImpulses,
+                kMaxImpulses> P_;
+  bool BuildNullSpace() noexcept;
+  Eigen::Matrix<double, dynamics::kNumJoints, Eigen::Dynamic, Eigen::ColMajor,
+                dynamics::kNumJoints, kMaxImpulses> GP_;
+  int null_dim_ = 0;
+  int last_null_dim_ = -1;
+  qp::Problem p2_;
+  qp::Solution s2_;
+  qp::Solver solver2_;
+
+  FallbackCounters counters_;
+  IdInput consistent_;
+  Eigen::LLT<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12>>
+      proj_llt_;
+};
+
+}  // namespace hyq::servo

@@ -1,0 +1,39 @@
+// The servo thread's own deadline (docs/servo.md, "Timing"): each cycle's work, read start to
+// write end, must fit in budget_fraction × period; max_consecutive_misses misses in a row are a
+// fault (reason kDeadlineMiss). In real time the work is wall time plus the wake-up latency; in
+// lock-step it is the thread's CPU time, so that a preemption by another process (wall time the
+// servo did not use) is not a miss.
+#pragma once
+
+#include <cstdint>
+
+#include "servo/runtime/fault.h"
+
+namespace hyq::servo {
+
+struct DeadlineConfig {
+  double budget_fraction = 0.9;   // cycle work (read .. write) must end within this × period
+  int max_consecutive_misses = 5; // this many misses in a row → DAMPING (reason kDeadlineMiss)
+};
+
+class DeadlineMonitor {
+ public:
+  DeadlineMonitor(const DeadlineConfig& config, double period_s);
+
+  /// One cycle's work `used_ns` (and its wall time `total_ns`, for the fault's detail); a fault
+  /// once the misses in a row reach the limit (and every cycle after, until one fits).
+  Fault Observe(std::int64_t used_ns, std::int64_t total_ns) noexcept;
+
+  std::int64_t budget_ns() const noexcept { return budget_ns_; }
+  std::uint64_t misses() const noexcept { return misses_; }
+  std::uint32_t consecutive() const noexcept { return consecutive_; }
+  std::uint32_t max_consecutive() const noexcept { return max_consecutive_; }
+
+ private:
+  std::int64_t budget_ns_;
+  std::uint32_t limit_;
+  std::uint64_t misses_ = 0;
+  std::uint32_t consecutive_ = 0, max_consecutive_ = 0;
+};
+
+}  // namespace hyq::servo

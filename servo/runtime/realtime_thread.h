@@ -1,0 +1,34 @@
+// The real-time set-up of the servo thread (house style §6, realtime_tools' lock_memory):
+// mlockall, SCHED_FIFO, CPU affinity and a pre-faulted stack, each refusal reported by name with
+// the capability or limit that is missing; and the absolute-time sleep of the real-time clock.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace hyq::servo {
+
+struct RealtimeConfig {
+  bool enabled = true;            // try SCHED_FIFO, affinity and mlockall (warn when refused)
+  int priority = 80;              // SCHED_FIFO priority of the servo thread, 1..99
+  int cpu = -1;                   // pin the servo thread to this CPU; −1: do not pin
+  bool lock_memory = true;        // mlockall(MCL_CURRENT | MCL_FUTURE)
+  std::uint32_t prefault_stack_kib = 256;  // stack touched before the first cycle
+};
+
+/// What the real-time set-up of the calling thread achieved; `warnings` name each refused
+/// request and the capability or limit that is missing (RLIMIT_RTPRIO, CAP_SYS_NICE,
+/// RLIMIT_MEMLOCK, CAP_IPC_LOCK).
+struct RealtimeReport {
+  bool fifo = false, pinned = false, locked = false;
+  std::vector<std::string> warnings;
+};
+/// SCHED_FIFO at settings.priority, pinned to settings.cpu, mlockall, the stack pre-faulted.
+/// Configuration time (allocates for the report).
+RealtimeReport SetUpRealtimeThread(const RealtimeConfig& settings);
+
+/// Sleeps until CLOCK_MONOTONIC reaches t_ns (TIMER_ABSTIME; resumed after signals).
+void SleepUntil(std::int64_t t_ns) noexcept;
+
+}  // namespace hyq::servo

@@ -1,0 +1,137 @@
+// The daemon's mode state machine (docs/servo.md, "Safety"): every decision about the mode and
+// what it means for the outputs is made here.
+//
+//   INIT ──bring-up──► STANDBY ──enable──► ACTIVE ──disable──► STANDBY
+//                        │  ▲                │ fault / damp / stop
+//                  fault │  │ acknowledge    ▼
+//                        ▼  │             DAMPING ──after damping_duration──► FAULT (fault)
+//                       FAULT ◄──────────────┘                              ► STANDBY (damp)
+//                                                                           ► STOPPED (stop)
+//
+// STANDBY: devices in OP, 0 N·m. ACTIVE: the controller's torque. DAMPING: τ = −D q̇ on the joints
+// whose inputs are valid, 0 N·m on the others. FAULT: 0 N·m and the devices asked to SAFE-OP
+// (outputs disabled) until an acknowledgement with the faults gone. STOPPED: 0 N·m, the devices
+// asked to PRE-OP; the run is finished once they are there (or the stop timeout passed). Every
+// transition, and every new fault while already safe, is a SafetyEvent with a reason (fixed
+// ring, drained by the loop).
+//
+// The acknowledgement is a handshake: in FAULT the loop asks the devices back to OP
+// (RequestAcknowledge) and the state machine returns to STANDBY once they are all in OP with
+// clean inputs, or gives up after a second. Auto-enable (operation.auto_enable) enables once, as
+// soon as the state estimate is ready.
+//
+// Nothing here allocates, locks or throws after construction.
+#pragma once
+
+#include <array>
+#include <cstdint>
+
+#include "hal/device_state_machine.h"
+#include "servo/common/servo_types.h"
+#include "servo/runtime/fault.h"
+#include "servo/runtime/safety_limits.h"
+
+namespace hyq::servo {
+
+/// What this cycle's mode means for the outputs (SafetyStateMachine::Decide).
+struct SafetyDecision {
+  enum class Torque : std::uint8_t { kController, kDamping, kZero };
+  ServoMode mode = ServoMode::kInit;
+  Torque torque = Torque::kZero;
+  /// The mode changed into FAULT (→ SAFE-OP) or STOPPED (→ PRE-OP): ask every device for this.
+  bool request_devices = false;
+  hal::DeviceState device_request = hal::DeviceState::kPreOp;
+  /// STOPPED and the devices down (or the stop timeout passed): the runner may return.
+  bool finished = false;
+};
+
+/// What the state machine is told about the cycle, once the inputs have been checked.
+struct CycleFacts {
+  bool inputs_ok = false;       // the input checks found nothing
+  bool devices_in_op = false;   // every device in OP
+};
+
+class SafetyStateMachine {
+ public:
+  static constexpr std::size_t kEventCapacity = 64;
+
+  /// `dt`: the period; `auto_enable`: STANDBY → ACTIVE once without a command; `stop_timeout_s`:
+  /// how long STOPPED waits for the devices to reach PRE-OP.
+  SafetyStateMachine(const SafetyLimits& limits, double dt, bool auto_enable = false,
+                     double stop_timeout_s = 3.0)
+      : limits_(limits), dt_(dt), auto_enable_(auto_enable), stop_timeout_s_(stop_timeout_s) {}
+
+  ServoMode mode() const noexcept { return mode_; }
+  /// Cycles spent in the current mode.
+  std::uint64_t cycles_in_mode() const noexcept { return cycles_in_mode_; }
+
+  /// Start of every cycle: its number and time (for events) and the damping timer.
+  void BeginCycle(std::uint64_t cycle, std::int64_t now_ns) noexcept;
+
+  /// Bring-up done: INIT → STANDBY.
+  void BringUpComplete() noexcept;
+  /// Operator requests. Each returns whether it was accepted; a refused request is an event
+  /// (kCommandRejected) naming the mode it was refused in.
+  bool Enable(EventReason why) noexcept;      // STANDBY → ACTIVE
+  bool Disable() noexcept;                    // ACTIVE → STANDBY
+  bool Damp() noexcept;                       // ACTIVE / STANDBY → DAMPING
+  /// FAULT → STANDBY; `inputs_ok` says whether the inputs are clean again.
+  bool Acknowledge(bool inputs_ok) noexcept;
+  /// Starts the acknowledgement handshake (only in FAULT; else refused with an event). The
+  /// caller asks the devices back to OP when this returns true.
+  bool RequestAcknowledge() noexcept;
+  /// Waiting for the devices after an acknowledgement.
+  bool acknowledge_pending() const noexcept { return ack_pending_; }
+  /// Whether the devices are expected in OP this cycle (for the input checks).
+  bool expects_devices_in_op() const noexcept;
+  /// Auto-enable: true when it enabled now (the caller starts the reference).
+  bool MaybeAutoEnable(bool estimate_ready) noexcept;
+  /// After the input checks: finishes (or gives up) a pending acknowledgement.
+  void Update(const CycleFacts& facts) noexcept;
+  /// Controlled stop: ACTIVE → DAMPING → STOPPED, anything else → STOPPED.
+  void Stop() noexcept;
+  /// A fault: ACTIVE → DAMPING, STANDBY → FAULT; while already safe, only an event (once per
+  /// reason until acknowledged).
+  void Report(const Fault& f) noexcept;
+  /// Records an event without a transition (applied commands, refused commands).
+  void Note(EventReason reason, const char* detail) noexcept;
+
+  /// The outputs of this cycle, after the controller: which torque, which device requests,
+  /// whether the stop is complete (`devices_down`: every device in PRE-OP or below).
+  SafetyDecision Decide(bool devices_down) noexcept;
+
+  /// Events not yet taken by the loop, oldest first; Take() removes one.
+  bool Take(SafetyEvent* e) noexcept;
+  std::uint64_t events() const noexcept { return events_; }
+  std::uint64_t events_dropped() const noexcept { return dropped_; }
+  /// Whether the current DAMPING ends in FAULT (a fault caused it) rather than STANDBY/STOPPED.
+  bool damping_for_fault() const noexcept { return damping_next_ == ServoMode::kFault; }
+  bool stop_requested() const noexcept { return stop_; }
+  bool ever_active() const noexcept { return ever_active_; }
+
+ private:
+  void Transition(ServoMode to, EventReason why, int joint, int bus, const char* detail) noexcept;
+  void Push(const SafetyEvent& e) noexcept;
+
+  SafetyLimits limits_;
+  double dt_;
+  bool auto_enable_;
+  double stop_timeout_s_;
+  ServoMode mode_ = ServoMode::kInit;
+  ServoMode damping_next_ = ServoMode::kFault;
+  ServoMode decided_mode_ = ServoMode::kInit;  // the mode of the last Decide
+  std::uint64_t cycle_ = 0;
+  std::int64_t now_ns_ = 0;
+  std::uint64_t cycles_in_mode_ = 0;
+  std::uint64_t stop_cycle_ = 0;
+  std::uint64_t ack_deadline_cycle_ = 0;
+  std::uint32_t latched_ = 0;  // bit per EventReason reported since the last acknowledgement
+  bool stop_ = false;
+  bool ack_pending_ = false;
+  bool ever_active_ = false;
+  std::array<SafetyEvent, kEventCapacity> ring_{};
+  std::size_t head_ = 0, size_ = 0;
+  std::uint64_t events_ = 0, dropped_ = 0;
+};
+
+}  // namespace hyq::servo

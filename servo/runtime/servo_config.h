@@ -1,0 +1,58 @@
+// The servo daemon's configuration: one struct per module, each declared by its module and
+// filled from YAML by config/ (house style §1; config/servo_config_loader.h and
+// config/hyq_servo.yaml, the default file). This struct only gathers them with the loop's own
+// settings.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <string>
+
+#include "hal/hal_config.h"
+#include "servo/common/servo_types.h"
+#include "servo/control/controller.h"
+#include "servo/estimation/estimator.h"
+#include "servo/reference/reference.h"
+#include "servo/runtime/deadline_monitor.h"
+#include "servo/runtime/realtime_thread.h"
+#include "servo/runtime/safety_limits.h"
+#include "servo/telemetry/telemetry_config.h"
+
+namespace hyq::servo {
+
+/// How the loop keeps time.
+enum class ClockMode : std::uint8_t {
+  kRealtime,  // wake on CLOCK_MONOTONIC absolute time, one period apart
+  kLockstep,  // virtual time: after each SYNC wait for the answers, then run the next cycle at
+              // once (hardware-in-the-loop with a simulator stepping once per SYNC)
+};
+const char* ToString(ClockMode m) noexcept;
+
+struct ServoConfig {
+  std::string source;                   // the file it came from
+  std::string urdf;                     // resolved path
+  std::string hal_file;                 // resolved path
+  hal::HalConfig hal;                   // loaded from hal_file; timing.cycle_period_s = 1 / rate
+  double rate_hz = 1000.0;
+  ClockMode clock = ClockMode::kRealtime;
+  double lockstep_timeout_s = 0.2;        // lock-step: longest wait for the devices' answers
+  double lockstep_short_timeout_s = 0.002;  // ... for 1000 cycles after an answer was missing
+  ControllerConfig controller;
+  std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};
+  Reference::Kind reference = Reference::Kind::kStand;
+  TrotParams trot;
+  FigureEightParams figure_eight;
+  double enable_ramp_s = 0.5;           // blend from the measured posture to the reference
+  bool auto_enable = false;             // STANDBY → ACTIVE without an operator command
+  double duration_s = 0.0;              // ACTIVE time after which the daemon stops; 0 = never
+  RealtimeConfig realtime;
+  DeadlineConfig deadline;
+  SafetyLimits safety;
+  EstimatorConfig estimator;
+  TelemetryConfig telemetry;
+  CommandChannelConfig commands;
+
+  double period_s() const noexcept { return 1.0 / rate_hz; }
+};
+
+}  // namespace hyq::servo

@@ -1,0 +1,341 @@
+#include "servo/runtime/servo_loop.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "hal/clock.h"
+#include "servo/runtime/command_rules.h"
+#include "servo/runtime/output_checker.h"
+
+namespace hyq::servo {
+namespace {
+
+// Every device in PRE-OP or below (a lost device is in INIT): the stop is complete.
+bool AllDown(const hal::Hal& hal) noexcept {
+  for (std::size_t b = 0; b < hal.num_buses(); ++b)
+    for (const auto& d : hal.bus(b).devices())
+      if (d.state > hal::DeviceState::kPreOp) return false;
+  return true;
+}
+
+Reference MakeReference(const ServoConfig& c, const dynamics::Model& m) {
+  switch (c.reference) {
+    case Reference::Kind::kTrot: return Reference::Trot(m, c.trot);
+    case Reference::Kind::kFigureEight: return Reference::FigureEight(m, c.figure_eight);
+    case Reference::Kind::kStand: break;
+  }
+  return Reference::Stand(m);
+}
+
+// Stamps the end of each stage (wall time) into the cycle's timing.
+class StageClock {
+ public:
+  explicit StageClock(std::int64_t t0) : last_(t0) {}
+  void Mark(std::int64_t* stage_ns) noexcept {
+    const std::int64_t t = MonotonicNs();
+    *stage_ns = t - last_;
+    last_ = t;
+  }
+
+ private:
+  std::int64_t last_;
+};
+
+}  // namespace
+
+ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, hal::Hal& hal,
+                     TelemetrySink* sink)
+    : config_(config),
+      model_(model),
+      hal_(hal),
+      sink_(sink),
+      dt_(config.period_s()),
+      checker_(config.safety, config.hal),
+      safety_(config.safety, config.period_s(), config.auto_enable,
+              config.hal.timing.state_timeout_s),
+      deadline_(config.deadline, config.period_s()),
+      estimator_(model, config.estimator, config.period_s()),
+      reference_(std::make_unique<Reference>(MakeReference(config, model))),
+      controller_(std::make_unique<Controller>(model, config.controller)),
+      dyn_(std::make_unique<dynamics::CycleDynamics>()),
+      base_gains_(config.controller.feedback) {
+  for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
+  reference_->Sample(0.0, &ref_);
+  joint_ref_ = ref_.joints;
+  snap_.num_buses = static_cast<std::uint8_t>(std::min<std::size_t>(hal.num_buses(), kMaxBuses));
+}
+
+ServoLoop::~ServoLoop() = default;
+
+void ServoLoop::Start(std::int64_t now_ns) noexcept {
+  safety_.BeginCycle(cycle_, now_ns);
+  checker_.Reset(hal_);
+  safety_.BringUpComplete();
+  DrainEvents();
+  published_mode_.store(safety_.mode(), std::memory_order_relaxed);
+}
+
+void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexcept {
+  // lock-step runs on virtual time: the deadline there is the thread's own CPU time
+  const std::int64_t cpu0 = config_.clock == ClockMode::kLockstep ? ThreadCpuNs() : 0;
+  StageClock clock(MonotonicNs());
+  BeginCycle(now_ns);
+  const hal::HalStatus rs = hal_.Read(now_ns);                       clock.Mark(&timing_.read_ns);
+  TakeCommands(now_ns);
+  CheckInputs(rs);
+  est_status_ = estimator_.Update(hal_.image(), ref_.joints.stance); clock.Mark(&timing_.estimate_ns);
+  SampleReference();                                                 clock.Mark(&timing_.reference_ns);
+  RunController();                                                   clock.Mark(&timing_.control_ns);
+  const SafetyDecision decision = safety_.Decide(AllDown(hal_));
+  ApplyDecision(decision, now_ns);                                   clock.Mark(&timing_.safety_ns);
+  const hal::HalStatus ws = hal_.Write(now_ns);
+  SpinInjectedOverrun();                                             clock.Mark(&timing_.write_ns);
+  EndCycle(decision, wakeup_latency_ns, cpu0);
+  PublishTelemetry(now_ns, rs, ws, decision.mode);
+}
+
+void ServoLoop::BeginCycle(std::int64_t now_ns) noexcept {
+  ++cycle_;
+  safety_.BeginCycle(cycle_, now_ns);
+}
+
+// operator commands (a few per cycle at most), auto-enable, then a stop request
+void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
+  const CommandTargets targets{&safety_, controller_.get(), &env_, &base_gains_,
+                               &config_.controller.pid, config_.safety.damp_on_bad_command};
+  ServoCommand cmd;
+  for (int i = 0; i < 4 && sink_ != nullptr && sink_->PopCommand(&cmd); ++i) {
+    switch (ApplyCommand(cmd, est_status_, targets)) {
+      case CommandOutcome::kRejected:
+        ++stats_.commands_rejected;
+        continue;
+      case CommandOutcome::kEnabled:
+        EnterActive();
+        break;
+      case CommandOutcome::kAcknowledging:
+        hal_.AcknowledgeFaults(now_ns);
+        hal_.RequestState(hal::DeviceState::kOp, now_ns);
+        break;
+      case CommandOutcome::kApplied:
+        break;
+    }
+    ++stats_.commands_applied;
+  }
+  if (safety_.MaybeAutoEnable(est_status_ == EstimatorStatus::kOk)) EnterActive();
+  if (stop_requested_.load(std::memory_order_relaxed)) safety_.Stop();
+}
+
+void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
+  const Fault input_fault = checker_.Check(hal_, read_status, safety_.expects_devices_in_op());
+  safety_.Report(input_fault);
+  safety_.Update({.inputs_ok = !input_fault, .devices_in_op = hal_.AllIn(hal::DeviceState::kOp)});
+}
+
+void ServoLoop::EnterActive() noexcept {
+  t_ref_ = 0.0;
+  active_time_ = 0.0;
+  for (int j = 0; j < kNumJoints; ++j)
+    q0_(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
+  reference_->Sample(0.0, &ref_);
+}
+
+void ServoLoop::SampleReference() noexcept {
+  if (safety_.mode() != ServoMode::kActive) return;  // the reference holds still outside ACTIVE
+  reference_->Sample(t_ref_, &ref_);
+  joint_ref_ = ref_.joints;
+  // enable ramp: from the posture measured at enable to the reference (smoothstep)
+  if (config_.enable_ramp_s > 0.0 && t_ref_ < config_.enable_ramp_s) {
+    const double x = t_ref_ / config_.enable_ramp_s;
+    const double s = x * x * (3.0 - 2.0 * x), sd = 6.0 * x * (1.0 - x) / config_.enable_ramp_s;
+    const dynamics::VectorJ gap = ref_.joints.q - q0_;
+    joint_ref_.q = q0_ + s * gap;
+    joint_ref_.qd = s * ref_.joints.qd + sd * gap;
+    joint_ref_.qdd = s * ref_.joints.qdd;
+  }
+}
+
+void ServoLoop::RunController() noexcept {
+  tau_.setZero();
+  if (safety_.mode() != ServoMode::kActive) return;
+  if (const Fault f = CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) {
+    safety_.Report(f);
+    return;
+  }
+  const VectorQ& q = estimator_.q();
+  const VectorV& v = estimator_.v();
+  if (const Fault f = CheckDynamics(dynamics::ComputeCycleDynamics(model_, q, v, dyn_.get()))) {
+    safety_.Report(f);
+    return;
+  }
+  id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, env_, dt_, &out_);
+  if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
+  if (const Fault f = CheckControllerOutput(controller_->kind(), id_status_, out_)) {
+    safety_.Report(f);
+    return;
+  }
+  tau_ = out_.tau_Nm;
+}
+
+void ServoLoop::Damping() noexcept {
+  const double D = config_.safety.damping_Nms_per_rad;
+  for (int j = 0; j < kNumJoints; ++j) {
+    const auto& in = hal_.image().joints[static_cast<std::size_t>(j)];
+    tau_(j) = in.valid() && std::isfinite(in.velocity_rad_s) ? -D * in.velocity_rad_s : 0.0;
+  }
+}
+
+// the safety decision applied: the torque the mode allows, the devices' requested state
+void ServoLoop::ApplyDecision(const SafetyDecision& d, std::int64_t now_ns) noexcept {
+  if (d.torque == SafetyDecision::Torque::kDamping) Damping();
+  else if (d.torque == SafetyDecision::Torque::kZero) tau_.setZero();
+  if (d.request_devices) hal_.RequestState(d.device_request, now_ns);
+  for (int j = 0; j < kNumJoints; ++j)
+    hal_.image().commands[static_cast<std::size_t>(j)].torque_Nm = tau_(j);
+  if (d.finished) finished_ = true;
+}
+
+// fault injection: spin inside the cycle's budget
+void ServoLoop::SpinInjectedOverrun() noexcept {
+  if (overrun_cycles_.load(std::memory_order_relaxed) <= 0) return;
+  const std::int64_t until = MonotonicNs() + overrun_ns_.load(std::memory_order_relaxed);
+  while (MonotonicNs() < until) {
+  }
+  overrun_cycles_.fetch_sub(1, std::memory_order_relaxed);
+}
+
+// the deadline, the run's statistics and the reference clock
+void ServoLoop::EndCycle(const SafetyDecision& d, std::int64_t wakeup_latency_ns,
+                         std::int64_t cpu0) noexcept {
+  timing_.wakeup_latency_ns = wakeup_latency_ns;
+  timing_.total_ns = timing_.read_ns + timing_.estimate_ns + timing_.reference_ns +
+                     timing_.control_ns + timing_.safety_ns + timing_.write_ns;
+  ++stats_.cycles;
+  stats_.wakeup.Add(wakeup_latency_ns);
+  stats_.cycle.Add(timing_.total_ns);
+  const std::int64_t used_ns = config_.clock == ClockMode::kLockstep
+                                   ? ThreadCpuNs() - cpu0
+                                   : timing_.total_ns + std::max<std::int64_t>(wakeup_latency_ns, 0);
+  safety_.Report(deadline_.Observe(used_ns, timing_.total_ns));
+  stats_.deadline_misses = deadline_.misses();
+  stats_.consecutive_misses = deadline_.consecutive();
+  stats_.max_consecutive_misses = deadline_.max_consecutive();
+
+  if (d.mode == ServoMode::kActive) {
+    ++stats_.active_cycles;
+    stats_.control.Add(timing_.control_ns);
+    const double qp_us = 1e6 * (out_.stage1.solve_time_s + out_.stage2.solve_time_s);
+    stats_.qp_time_sum_us += qp_us;
+    stats_.qp_time_max_us = std::max(stats_.qp_time_max_us, qp_us);
+    t_ref_ += dt_;
+    active_time_ += dt_;
+    if (config_.duration_s > 0.0 && active_time_ >= config_.duration_s) RequestStop();
+  }
+}
+
+void ServoLoop::PublishTelemetry(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws,
+                                 ServoMode mode) noexcept {
+  FillSnapshot(now_ns, rs, ws);
+  if (mode == ServoMode::kActive) {
+    stats_.tracking_error_sum_rad += snap_.tracking_error_rad;
+    stats_.tracking_error_max_rad = std::max(stats_.tracking_error_max_rad, snap_.tracking_error_rad);
+  }
+  if (sink_ != nullptr && !sink_->Push(snap_)) ++stats_.telemetry_drops;
+  DrainEvents();
+  published_mode_.store(safety_.mode(), std::memory_order_relaxed);
+  published_cycles_.store(cycle_, std::memory_order_relaxed);
+  published_active_s_.store(active_time_, std::memory_order_relaxed);
+}
+
+void ServoLoop::DrainEvents() noexcept {
+  SafetyEvent e;
+  while (safety_.Take(&e)) {
+    if (static_cast<std::size_t>(e.reason) < by_reason_.size()) ++by_reason_[static_cast<std::size_t>(e.reason)];
+    if (num_first_events_ < first_events_.size()) first_events_[num_first_events_++] = e;
+    last_event_ = e;
+    if (sink_ != nullptr && !sink_->PushEvent(e)) ++stats_.event_drops;
+  }
+}
+
+void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept {
+  TelemetrySnapshot& s = snap_;
+  const auto& image = hal_.image();
+  s.cycle = cycle_;
+  s.time_ns = now_ns;
+  s.reference_time_s = t_ref_;
+  s.mode = safety_.mode();
+  s.controller = controller_->kind();
+  double err2 = 0.0;
+  for (std::size_t j = 0; j < kNumJoints; ++j) {
+    const auto& in = image.joints[j];
+    const int ji = static_cast<int>(j);
+    s.q_rad[j] = in.position_rad;
+    s.qd_rad_s[j] = in.velocity_rad_s;
+    s.tau_measured_Nm[j] = in.torque_Nm;
+    s.q_ref_rad[j] = joint_ref_.q(ji);
+    s.qd_ref_rad_s[j] = joint_ref_.qd(ji);
+    s.tau_command_Nm[j] = tau_(ji);
+    s.input_status[j] = static_cast<std::uint8_t>(in.status);
+    const double e = joint_ref_.q(ji) - in.position_rad;
+    err2 += std::isfinite(e) ? e * e : 0.0;
+  }
+  s.tracking_error_rad = std::sqrt(err2);
+  const VectorQ& q = estimator_.q();
+  const VectorV& v = estimator_.v();
+  for (int i = 0; i < 3; ++i) {
+    s.base_position_m[static_cast<std::size_t>(i)] = q(i);
+    s.base_velocity_m_s[static_cast<std::size_t>(i)] = v(i);
+    s.base_angular_velocity_rad_s[static_cast<std::size_t>(i)] = v(3 + i);
+  }
+  for (int i = 0; i < 4; ++i) s.base_orientation_wxyz[static_cast<std::size_t>(i)] = q(3 + i);
+  const bool active = safety_.mode() == ServoMode::kActive;
+  for (std::size_t f = 0; f < kNumFeet; ++f) {
+    s.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
+    s.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
+    s.mu[f] = env_.mu[f];
+    const auto& imp = out_.impulses[f];
+    const Eigen::Vector3d F =
+        active && imp.active ? Eigen::Vector3d((imp.normal_Ns * Eigen::Vector3d::UnitZ() +
+                                                imp.tangent_Ns_W) / dt_)
+                             : Eigen::Vector3d::Zero();
+    for (int i = 0; i < 3; ++i) s.contact_force_N[f][static_cast<std::size_t>(i)] = F(i);
+  }
+  s.stage1_status = static_cast<std::uint8_t>(out_.stage1.status);
+  s.stage2_status = static_cast<std::uint8_t>(out_.stage2.status);
+  s.fallback = static_cast<std::uint8_t>(out_.fallback);
+  s.stage1_iterations = out_.stage1.iterations;
+  s.stage2_iterations = out_.stage2.iterations;
+  s.stage1_solve_us = 1e6 * out_.stage1.solve_time_s;
+  s.stage2_solve_us = 1e6 * out_.stage2.solve_time_s;
+  s.timing = timing_;
+  s.deadline_misses = stats_.deadline_misses;
+  s.consecutive_misses = stats_.consecutive_misses;
+  s.skipped_cycles = stats_.skipped_cycles;
+  std::size_t dev = 0;
+  for (std::size_t b = 0; b < hal_.num_buses() && b < kMaxBuses; ++b) {
+    const auto& c = hal_.bus(b).counters();
+    BusHealth& h = s.buses[b];
+    h.rx_frames = c.rx_frames;
+    h.tx_frames = c.tx_frames;
+    h.wkc_faults = c.wkc_faults;
+    h.missing = c.missing;
+    h.malformed = c.malformed;
+    h.error_frames = c.error_frames;
+    h.emcy = c.emcy;
+    h.bus_off = c.bus_off;
+    h.tx_failed = c.tx_failed;
+    h.wkc_expected = hal_.bus(b).wkc().expected;
+    h.wkc_received = hal_.bus(b).wkc().received;
+    for (const auto& d : hal_.bus(b).devices())
+      if (dev < kMaxDevices) s.device_state[dev++] = static_cast<std::uint8_t>(d.state);
+  }
+  s.num_devices = static_cast<std::uint8_t>(dev);
+  s.hal_read_status = static_cast<std::uint8_t>(rs);
+  s.hal_write_status = static_cast<std::uint8_t>(ws);
+  s.events = safety_.events();
+}
+
+const char* ToString(ClockMode m) noexcept {
+  return m == ClockMode::kLockstep ? "lockstep" : "realtime";
+}
+
+}  // namespace hyq::servo

@@ -1,0 +1,164 @@
+// The servo cycle (docs/servo.md), one line per stage, as mj_step reads:
+//   read → commands → input checks → estimate → reference → control → safety decision → write
+//   → telemetry
+// The checks only find faults (input_checker.h, output_checker.h, deadline_monitor.h); every
+// decision about the mode and the outputs is the safety state machine's
+// (safety_state_machine.h); the commands' mode rules are command_rules.h. One call of Cycle() per
+// period, from one thread; nothing in it allocates, locks, logs, blocks or throws. The clock
+// (real time or lock-step) is the caller's: servo/runtime/servo_runner.h.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <memory>
+#include <span>
+
+#include "dynamics/cycle_dynamics.h"
+#include "hal/hal.h"
+#include "servo/common/servo_types.h"
+#include "servo/control/controller.h"
+#include "servo/estimation/estimator.h"
+#include "servo/reference/reference.h"
+#include "servo/runtime/deadline_monitor.h"
+#include "servo/runtime/input_checker.h"
+#include "servo/runtime/latency_histogram.h"
+#include "servo/runtime/safety_state_machine.h"
+#include "servo/runtime/servo_config.h"
+#include "servo/telemetry/telemetry_snapshot.h"
+
+namespace hyq::servo {
+
+/// Counters and distributions of a run (for the summary and the benchmark).
+struct LoopStats {
+  std::uint64_t cycles = 0;
+  std::uint64_t active_cycles = 0;
+  std::uint64_t deadline_misses = 0;
+  std::uint32_t consecutive_misses = 0, max_consecutive_misses = 0;
+  std::uint64_t skipped_cycles = 0;           // kept by the runner
+  std::uint64_t telemetry_drops = 0, event_drops = 0;
+  std::uint64_t commands_applied = 0, commands_rejected = 0;
+  std::uint64_t controller_fallbacks = 0;
+  LatencyHistogram wakeup;                    // wake-up latency
+  LatencyHistogram cycle;                     // read start .. write end
+  LatencyHistogram control;                   // dynamics + controller
+  double tracking_error_sum_rad = 0.0;        // Σ ‖q_ref − q‖ over ACTIVE cycles
+  double tracking_error_max_rad = 0.0;
+  double qp_time_sum_us = 0.0, qp_time_max_us = 0.0;  // Stage I + II, ACTIVE cycles
+};
+
+class ServoLoop {
+ public:
+  static constexpr std::size_t kFirstEvents = 32;
+
+  /// Configuration time: builds the estimator, the reference, every controller (QP workspaces)
+  /// and the dynamics workspace. `hal` and `sink` (may be null) are not owned.
+  ServoLoop(const ServoConfig& config, const dynamics::Model& model, hal::Hal& hal,
+            TelemetrySink* sink);
+  ~ServoLoop();
+  ServoLoop(const ServoLoop&) = delete;
+  ServoLoop& operator=(const ServoLoop&) = delete;
+
+  /// After the bring-up (every device in OP): INIT → STANDBY.
+  void Start(std::int64_t now_ns) noexcept;
+
+  /// One cycle at `now_ns` (monotonic or virtual); `wakeup_latency_ns` is for the record.
+  void Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexcept;
+
+  /// A controlled stop (from any thread, e.g. a signal handler's thread): damping if ACTIVE,
+  /// then zero torque and the devices back to PRE-OP.
+  void RequestStop() noexcept { stop_requested_.store(true, std::memory_order_relaxed); }
+  /// STOPPED and the devices in PRE-OP (or the stop timeout passed): the runner may return.
+  bool finished() const noexcept { return finished_; }
+
+  ServoMode mode() const noexcept { return safety_.mode(); }
+  /// The mode and cycle count for other threads (progress lines, supervisors).
+  ServoMode published_mode() const noexcept { return published_mode_.load(std::memory_order_relaxed); }
+  std::uint64_t published_cycles() const noexcept { return published_cycles_.load(std::memory_order_relaxed); }
+  /// Seconds spent in ACTIVE so far, for other threads.
+  double published_active_s() const noexcept { return published_active_s_.load(std::memory_order_relaxed); }
+  const LoopStats& stats() const noexcept { return stats_; }
+  const TelemetrySnapshot& snapshot() const noexcept { return snap_; }
+  const Controller& controller() const noexcept { return *controller_; }
+  const StateEstimator& estimator() const noexcept { return estimator_; }
+  std::uint64_t events() const noexcept { return safety_.events(); }
+  /// The run's first events (up to kFirstEvents) and last event, for the summary.
+  std::span<const SafetyEvent> first_events() const noexcept {
+    return {first_events_.data(), num_first_events_};
+  }
+  const SafetyEvent& last_event() const noexcept { return last_event_; }
+  /// Events of the run by reason (index: EventReason).
+  const std::array<std::uint32_t, kNumEventReasons>& events_by_reason() const noexcept {
+    return by_reason_;
+  }
+
+  /// The runner skipped `n` periods to get back on schedule.
+  void CountSkipped(std::uint64_t n) noexcept { stats_.skipped_cycles += n; }
+
+  /// Fault injection: the next `cycles` cycles each take `extra_ns` longer (busy wait).
+  void InjectOverrun(std::int64_t extra_ns, int cycles) noexcept {
+    overrun_ns_.store(extra_ns, std::memory_order_relaxed);
+    overrun_cycles_.store(cycles, std::memory_order_relaxed);
+  }
+
+ private:
+  // the stages of Cycle(), in order
+  void BeginCycle(std::int64_t now_ns) noexcept;
+  void TakeCommands(std::int64_t now_ns) noexcept;
+  void CheckInputs(hal::HalStatus read_status) noexcept;
+  void SampleReference() noexcept;
+  void RunController() noexcept;
+  void ApplyDecision(const SafetyDecision& d, std::int64_t now_ns) noexcept;
+  void SpinInjectedOverrun() noexcept;
+  void EndCycle(const SafetyDecision& d, std::int64_t wakeup_latency_ns,
+                std::int64_t cpu_ns) noexcept;
+  void PublishTelemetry(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws,
+                        ServoMode mode) noexcept;
+
+  void EnterActive() noexcept;
+  void Damping() noexcept;
+  void FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept;
+  void DrainEvents() noexcept;
+
+  ServoConfig config_;
+  const dynamics::Model& model_;
+  hal::Hal& hal_;
+  TelemetrySink* sink_;
+  double dt_;
+
+  InputChecker checker_;
+  SafetyStateMachine safety_;
+  DeadlineMonitor deadline_;
+  StateEstimator estimator_;
+  std::unique_ptr<Reference> reference_;
+  std::unique_ptr<Controller> controller_;
+  std::unique_ptr<dynamics::CycleDynamics> dyn_;
+  ContactEnvironment env_;
+  FeedbackGains base_gains_;
+  ReferenceSample ref_;
+  JointReference joint_ref_;  // after the enable ramp
+  IdOutput out_;
+  IdStatus id_status_ = IdStatus::kOk;
+  dynamics::VectorJ tau_ = dynamics::VectorJ::Zero();
+  dynamics::VectorJ q0_ = dynamics::VectorJ::Zero();  // measured posture at enable
+  double t_ref_ = 0.0;
+  double active_time_ = 0.0;
+  EstimatorStatus est_status_ = EstimatorStatus::kNoImu;
+  bool finished_ = false;
+  std::uint64_t cycle_ = 0;
+  std::int64_t cycle_start_ns_ = 0;
+  std::atomic<bool> stop_requested_{false};
+  std::atomic<ServoMode> published_mode_{ServoMode::kInit};
+  std::atomic<std::uint64_t> published_cycles_{0};
+  std::atomic<double> published_active_s_{0.0};
+  std::atomic<std::int64_t> overrun_ns_{0};
+  std::atomic<int> overrun_cycles_{0};
+  LoopStats stats_;
+  TelemetrySnapshot snap_;
+  CycleTiming timing_;
+  std::array<std::uint32_t, kNumEventReasons> by_reason_{};
+  std::array<SafetyEvent, kFirstEvents> first_events_{};
+  std::size_t num_first_events_ = 0;
+  SafetyEvent last_event_;
+};
+
+}  // namespace hyq::servo

@@ -1,0 +1,90 @@
+#include "servo/runtime/servo_runner.h"
+
+#include <poll.h>
+
+#include <algorithm>
+
+#include "hal/clock.h"
+#include "hal/protocol.h"
+#include "servo/runtime/realtime_thread.h"
+
+namespace hyq::servo {
+
+// --- lock-step ---------------------------------------------------------------------------------
+
+bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channels,
+                   std::int64_t timeout_ns, std::int64_t idle_ns) noexcept {
+  int expected = 0;
+  for (std::size_t b = 0; b < hal.num_buses(); ++b)
+    for (const auto& d : hal.bus(b).devices()) expected += d.expect_inputs ? 1 : 0;
+  std::array<pollfd, hal::kMaxBuses> fds{};
+  std::size_t nfds = 0;
+  for (LockstepChannel* c : channels)
+    if (c->poll_fd() >= 0 && nfds < fds.size()) fds[nfds++] = {c->poll_fd(), POLLIN, 0};
+  // nothing owed (devices below SAFE-OP): only a moment for NMT answers and heartbeats
+  const std::int64_t end = MonotonicNs() + (expected == 0 ? std::min(timeout_ns, idle_ns) : timeout_ns);
+  for (;;) {
+    int got = 0;
+    for (LockstepChannel* c : channels) got += c->Pump();
+    if (expected > 0 && got >= expected) return true;
+    const std::int64_t left = end - MonotonicNs();
+    if (left <= 0) return expected == 0;
+    (void)poll(fds.data(), nfds, static_cast<int>(std::max<std::int64_t>(left / 1'000'000, 1)));
+  }
+}
+
+std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
+                     std::span<LockstepChannel* const> channels) {
+  const auto period = static_cast<std::int64_t>(config.period_s() * 1e9);
+  std::int64_t now = config.clock == ClockMode::kLockstep ? 0 : MonotonicNs();
+  hal::RunBringUp(hal, hal::DeviceState::kOp, now, [&] {
+    if (config.clock == ClockMode::kLockstep) {
+      // devices that owe no TPDO yet answer NMT commands: give them a moment of wall time
+      (void)WaitForInputs(hal, channels, 200'000'000, 20'000'000);
+      now += period;
+    } else {
+      now += period;
+      SleepUntil(now);
+    }
+    return now;
+  });
+  return now;
+}
+
+void RunRealtime(ServoLoop& loop, const ServoConfig& config, std::int64_t start_ns) noexcept {
+  const auto period = static_cast<std::int64_t>(config.period_s() * 1e9);
+  std::int64_t next = start_ns;
+  while (!loop.finished()) {
+    next += period;
+    SleepUntil(next);
+    const std::int64_t woke = MonotonicNs();
+    loop.Cycle(next, woke - next);
+    const std::int64_t end = MonotonicNs();
+    if (end > next + period) {  // overran the next wake-up: skip the periods already lost
+      const std::int64_t lost = (end - next) / period;
+      loop.CountSkipped(static_cast<std::uint64_t>(lost));
+      next += lost * period;
+    }
+  }
+}
+
+void RunLockstep(ServoLoop& loop, const hal::Hal& hal, const ServoConfig& config,
+                 std::span<LockstepChannel* const> channels, std::int64_t start_ns) noexcept {
+  const auto period = static_cast<std::int64_t>(config.period_s() * 1e9);
+  std::int64_t now = start_ns;
+  // a device that stopped answering would make every cycle wait the full timeout: after a cycle
+  // came up short, wait only briefly for the next thousand cycles
+  int short_waits = 0;
+  const auto long_ns = static_cast<std::int64_t>(config.lockstep_timeout_s * 1e9);
+  const auto short_ns = static_cast<std::int64_t>(config.lockstep_short_timeout_s * 1e9);
+  while (!loop.finished()) {
+    now += period;
+    loop.Cycle(now, 0);
+    const bool complete = WaitForInputs(hal, channels, short_waits > 0 ? short_ns : long_ns,
+                                        std::min<std::int64_t>(short_ns, 1'000'000));
+    if (!complete) short_waits = 1000;
+    else if (short_waits > 0) --short_waits;
+  }
+}
+
+}  // namespace hyq::servo

@@ -1,0 +1,47 @@
+// The clocks that drive a ServoLoop (docs/servo.md, "Timing") and the bring-up that precedes it.
+// The servo thread's real-time set-up is servo/runtime/realtime_thread.h.
+//
+//  - real time: the period on absolute CLOCK_MONOTONIC time (clock_nanosleep TIMER_ABSTIME);
+//    wake-up latency = actual − scheduled wake-up; a cycle that ends after the next wake-up
+//    was due skips the periods it overran (counted) instead of running them back to back.
+//  - lock-step: virtual time (cycle × period). After each cycle's SYNC the runner waits until
+//    every device that owes an answer has answered (or a wall-clock timeout passes) and runs the
+//    next cycle at once: with a simulator that steps once per SYNC the closed loop is
+//    deterministic and runs as fast as both sides compute.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "hal/can_channel.h"
+#include "hal/hal.h"
+#include "hal/lockstep_channel.h"
+#include "servo/runtime/servo_config.h"
+#include "servo/runtime/servo_loop.h"
+
+namespace hyq::servo {
+
+using hal::LockstepChannel;
+
+/// Waits (poll on the channels' descriptors) until the channels hold as many TPDOs as the HAL's
+/// devices owe for the last SYNC, at most `timeout_ns` of wall time; when no device owes one
+/// (all below SAFE-OP), `idle_ns` for NMT answers and heartbeats. Returns whether they did.
+bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channels,
+                   std::int64_t timeout_ns, std::int64_t idle_ns) noexcept;
+
+/// Brings every device to OP with the configured clock (throws hal::ConfigError with the HAL's
+/// report on timeout); returns the time of the last bring-up cycle. `channels` is empty in real
+/// time.
+std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
+                     std::span<LockstepChannel* const> channels);
+
+/// Runs the loop until loop.finished(). Real time: from `start_ns`; lock-step: virtual time from
+/// `start_ns`, waiting on `channels`.
+void RunRealtime(ServoLoop& loop, const ServoConfig& config, std::int64_t start_ns) noexcept;
+void RunLockstep(ServoLoop& loop, const hal::Hal& hal, const ServoConfig& config,
+                 std::span<LockstepChannel* const> channels, std::int64_t start_ns) noexcept;
+
+}  // namespace hyq::servo

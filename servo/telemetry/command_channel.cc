@@ -1,0 +1,104 @@
+#include "servo/telemetry/command_channel.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+namespace hyq::servo {
+
+CommandValidator::CommandValidator(const CommandChannelConfig& c) : config_(c) {
+  if (c.enabled) CheckRanges(c);
+  for (const std::string& name : c.allowed_controllers) {
+    const auto kind = ParseControllerKind(name);
+    if (!kind)
+      throw std::invalid_argument("CommandChannelConfig.allowed_controllers: unknown controller '" +
+                                  name + "' (expected pid, noslip, stage1 or two_stage)");
+    allowed_.push_back(*kind);
+  }
+}
+
+void CommandValidator::CheckRanges(const CommandChannelConfig& c) {
+  if (!(c.max_rate_hz > 0.0))
+    throw std::invalid_argument("CommandChannelConfig.max_rate_hz: expected > 0, found " +
+                                std::to_string(c.max_rate_hz));
+  if (!(c.mu_min <= c.mu_max) || !(c.mu_min >= 0.0))
+    throw std::invalid_argument("CommandChannelConfig mu range: expected 0 <= mu_min <= mu_max");
+  if (!(c.gain_scale_min <= c.gain_scale_max) || !(c.gain_scale_min > 0.0))
+    throw std::invalid_argument(
+        "CommandChannelConfig gain scale range: expected 0 < gain_scale_min <= gain_scale_max");
+  if (c.channel.empty())
+    throw std::invalid_argument("CommandChannelConfig.channel: expected a name, found none");
+}
+
+bool CommandValidator::Validate(const hyq_lcm::lcmt_hyq_command& msg, ServoCommand* out,
+                                char* why, std::size_t n) const {
+  const CommandChannelConfig& c = config_;
+  using K = hyq_lcm::lcmt_hyq_command;
+  if (msg.kind < K::KIND_ENABLE || msg.kind > K::KIND_SET_GAINS) {
+    std::snprintf(why, n, "kind: expected 0..6, found %d", msg.kind);
+    return false;
+  }
+  out->kind = static_cast<ServoCommand::Kind>(msg.kind);
+  out->sequence = static_cast<std::uint64_t>(msg.sequence);
+  switch (msg.kind) {
+    case K::KIND_SET_MU:
+      if (msg.num_feet != kNumFeet) {
+        std::snprintf(why, n, "mu: expected %d feet, found %d", kNumFeet, msg.num_feet);
+        return false;
+      }
+      for (int f = 0; f < kNumFeet; ++f) {
+        const double mu = msg.mu[static_cast<std::size_t>(f)];
+        if (!std::isfinite(mu) || mu < c.mu_min || mu > c.mu_max) {
+          std::snprintf(why, n, "mu[%d]: expected [%g, %g], found %g", f, c.mu_min, c.mu_max, mu);
+          return false;
+        }
+        out->mu[static_cast<std::size_t>(f)] = mu;
+      }
+      break;
+    case K::KIND_SET_CONTROLLER: {
+      const auto kind = ParseControllerKind(msg.controller);
+      if (!kind || std::find(allowed_.begin(), allowed_.end(), *kind) == allowed_.end()) {
+        std::string list;
+        for (const std::string& a : c.allowed_controllers) list += (list.empty() ? "" : ",") + a;
+        std::snprintf(why, n, "controller: expected one of %s, found '%.24s'", list.c_str(),
+                      msg.controller.c_str());
+        return false;
+      }
+      out->controller = *kind;
+      break;
+    }
+    case K::KIND_SET_GAINS:
+      for (const auto& [name, v] : {std::pair{"kp_scale", msg.kp_scale}, {"kd_scale", msg.kd_scale}}) {
+        if (!std::isfinite(v) || v < c.gain_scale_min || v > c.gain_scale_max) {
+          std::snprintf(why, n, "%s: expected [%g, %g], found %g", name, c.gain_scale_min,
+                        c.gain_scale_max, v);
+          return false;
+        }
+      }
+      out->kp_scale = msg.kp_scale;
+      out->kd_scale = msg.kd_scale;
+      break;
+    default:
+      break;
+  }
+  return true;
+}
+
+bool CommandValidator::RateAllows(Clock::time_point now, char* why, std::size_t n) const {
+  if (!accepted_any_) return true;
+  const double dt_s = std::chrono::duration<double>(now - last_accepted_).count();
+  if (dt_s * config_.max_rate_hz >= 1.0) return true;
+  std::snprintf(why, n, "rate: expected <= %g Hz, found %.0f Hz", config_.max_rate_hz,
+                dt_s > 0.0 ? 1.0 / dt_s : 1e9);
+  return false;
+}
+
+void CommandValidator::Accepted(Clock::time_point now) noexcept {
+  accepted_any_ = true;
+  last_accepted_ = now;
+}
+
+}  // namespace hyq::servo

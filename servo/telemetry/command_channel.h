@@ -1,0 +1,47 @@
+// The operator command channel's rules (docs/telemetry.md, "Commands"), apart from any LCM
+// instance: decode an lcmt_hyq_command, validate its fields against CommandChannelConfig, and
+// rate-limit what is accepted. Used on the telemetry thread; Validate is pure, so tests check
+// every rule without a network.
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "hyq_lcm/lcmt_hyq_command.hpp"
+#include "servo/common/servo_types.h"
+#include "servo/telemetry/telemetry_config.h"
+
+namespace hyq::servo {
+
+class CommandValidator {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  /// @throws std::invalid_argument naming the field for an unusable configuration: unknown
+  ///         controller names; when enabled, also a non-positive rate, empty ranges, no channel.
+  explicit CommandValidator(const CommandChannelConfig& config);
+  /// The range checks alone (what the constructor does for an enabled channel).
+  static void CheckRanges(const CommandChannelConfig& config);
+
+  /// Checks a decoded message; fills `out` when valid, else writes why (expected, found) into
+  /// `why`. Never allocates on the accept path.
+  bool Validate(const hyq_lcm::lcmt_hyq_command& msg, ServoCommand* out, char* why,
+                std::size_t why_size) const;
+
+  /// Rate limit: whether a valid command at `now` may be accepted (at least 1 / max_rate_hz after
+  /// the last accepted one); when not, `why` says so. Accepted() records an acceptance.
+  bool RateAllows(Clock::time_point now, char* why, std::size_t why_size) const;
+  void Accepted(Clock::time_point now) noexcept;
+
+  const CommandChannelConfig& config() const noexcept { return config_; }
+
+ private:
+  CommandChannelConfig config_;
+  std::vector<ControllerKind> allowed_;
+  Clock::time_point last_accepted_{};
+  bool accepted_any_ = false;
+};
+
+}  // namespace hyq::servo

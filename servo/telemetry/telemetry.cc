@@ -1,0 +1,350 @@
+#include "servo/telemetry/telemetry.h"
+
+#include <poll.h>
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <stdexcept>
+#include <thread>
+#include <utility>
+
+#include <lcm/lcm-cpp.hpp>
+
+#include "servo/telemetry/command_channel.h"
+#include "servo/telemetry/lcm_mapping.h"
+#include "servo/telemetry/spsc_ring.h"
+
+namespace hyq::servo {
+
+namespace {
+
+constexpr std::size_t kEventStringCapacity = 128;
+
+bool Due(std::uint64_t cycle, std::uint32_t every) { return every != 0 && cycle % every == 0; }
+
+void CheckCapacity(const char* name, std::size_t n) {
+  if (n < 2 || (n & (n - 1)) != 0)
+    throw std::invalid_argument(std::string("TelemetryConfig.") + name +
+                                ": expected a power of two >= 2, found " + std::to_string(n));
+}
+
+}  // namespace
+
+struct Telemetry::Impl {
+  Impl(const TelemetryConfig& c, const CommandChannelConfig& cc, PublishFn p)
+      : config(c), validator(cc), publish_override(std::move(p)),
+        snapshots(c.snapshot_queue_capacity), events(c.event_queue_capacity),
+        commands(c.command_queue_capacity) {}
+
+  const TelemetryConfig config;
+  CommandValidator validator;  // decode, validate and rate-limit (telemetry thread)
+  PublishFn publish_override;
+  std::unique_ptr<lcm::LCM> lcm;
+  lcm::Subscription* subscription = nullptr;
+
+  SpscRing<TelemetrySnapshot> snapshots;  // servo -> telemetry thread
+  SpscRing<SafetyEvent> events;           // servo -> telemetry thread
+  SpscRing<ServoCommand> commands;        // telemetry thread -> servo
+
+  std::atomic<std::uint64_t> snapshots_pushed{0}, snapshots_dropped{0}, snapshots_published{0};
+  std::atomic<std::uint64_t> events_pushed{0}, events_dropped{0}, events_published{0};
+  std::atomic<std::uint64_t> messages_published{0}, publish_failures{0};
+  std::atomic<std::uint64_t> commands_received{0}, commands_accepted{0}, commands_rejected{0};
+  std::atomic<std::uint64_t> commands_dropped{0};
+
+  std::thread thread;
+  std::atomic<bool> stop{false};
+  bool running = false;
+
+  // telemetry thread only: channel names, messages and the encode buffer, all built up front
+  std::string ch_joint_state, ch_joint_torque, ch_base_state, ch_contact, ch_timing, ch_health,
+      ch_event;
+  TelemetrySnapshot current;
+  bool have_current = false;
+  SafetyEvent event_in;
+  hyq_lcm::lcmt_hyq_joint_state joint_state{};
+  hyq_lcm::lcmt_hyq_joint_torque joint_torque{};
+  hyq_lcm::lcmt_hyq_base_state base_state{};
+  hyq_lcm::lcmt_hyq_contact_state contact{};
+  hyq_lcm::lcmt_hyq_servo_timing timing{};
+  hyq_lcm::lcmt_hyq_health health{};
+  hyq_lcm::lcmt_hyq_event event{};
+  // UDP multicast is best effort and a busy subscriber (lcm-logger's receive ring) drops
+  // datagrams: each event is published again with the next two HEALTH messages (consumers
+  // deduplicate on cycle and reason); fixed capacity, the oldest repeats give way
+  struct Repeat {
+    SafetyEvent event;
+    int left = 0;
+  };
+  static constexpr std::size_t kMaxRepeats = 64;
+  std::array<Repeat, kMaxRepeats> repeats{};
+  std::size_t num_repeats = 0;
+  std::vector<std::uint8_t> buffer;
+
+  void Run();
+  bool DrainOnce();
+  void PublishSnapshot(const TelemetrySnapshot& s);
+  void PublishHealth(const TelemetrySnapshot& s);
+  TelemetryStats Stats() const noexcept;
+  void PublishEvent(const SafetyEvent& e, bool repeat = true);
+  template <class M>
+  void Publish(const std::string& channel, const M& msg);
+  void OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  void Reject(std::int64_t sequence, const char* why);
+  void TellServoInvalid(std::int64_t sequence);
+};
+
+Telemetry::Telemetry(const TelemetryConfig& config, const CommandChannelConfig& commands,
+                     PublishFn publish)
+    : config_(config) {
+  if (!config.enabled) return;
+  CheckCapacity("snapshot_queue_capacity", config.snapshot_queue_capacity);
+  CheckCapacity("event_queue_capacity", config.event_queue_capacity);
+  CheckCapacity("command_queue_capacity", config.command_queue_capacity);
+  impl_ = std::make_unique<Impl>(config, commands, std::move(publish));
+  Impl& m = *impl_;
+  m.lcm = std::make_unique<lcm::LCM>(config.lcm_url);
+  if (!m.lcm->good())
+    throw std::runtime_error("Telemetry: cannot create LCM on '" + config.lcm_url +
+                             "' (for udpm, is there a multicast route, e.g. 224.0.0.0/4 dev lo?)");
+  if (commands.enabled) {
+    m.subscription = m.lcm->subscribe(commands.channel, &Impl::OnCommand, &m);
+    if (m.subscription == nullptr)
+      throw std::runtime_error("Telemetry: cannot subscribe to '" + commands.channel + "'");
+  }
+
+  m.ch_joint_state = channel("JOINT_STATE");
+  m.ch_joint_torque = channel("JOINT_TORQUE");
+  m.ch_base_state = channel("BASE_STATE");
+  m.ch_contact = channel("CONTACT");
+  m.ch_timing = channel("TIMING");
+  m.ch_health = channel("HEALTH");
+  m.ch_event = channel("EVENT");
+  for (std::string* s : {&m.event.from_name, &m.event.to_name, &m.event.reason, &m.event.detail})
+    s->reserve(kEventStringCapacity);
+  m.buffer.resize(std::max({m.joint_state.getEncodedSize(), m.joint_torque.getEncodedSize(),
+                            m.base_state.getEncodedSize(), m.contact.getEncodedSize(),
+                            m.timing.getEncodedSize(), m.health.getEncodedSize(),
+                            m.event.getEncodedSize() + 4 * static_cast<int>(kEventStringCapacity)}));
+}
+
+Telemetry::~Telemetry() { Stop(); }
+
+void Telemetry::Start() {
+  if (!impl_ || impl_->running) return;
+  impl_->stop.store(false);
+  impl_->thread = std::thread([m = impl_.get()] { m->Run(); });
+  impl_->running = true;
+}
+
+void Telemetry::Stop() {
+  if (!impl_ || !impl_->running) return;
+  impl_->stop.store(true, std::memory_order_release);
+  impl_->thread.join();
+  impl_->running = false;
+}
+
+bool Telemetry::Push(const TelemetrySnapshot& snapshot) noexcept {
+  if (!impl_) return false;
+  if (!impl_->snapshots.TryPush(snapshot)) {
+    impl_->snapshots_dropped.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  impl_->snapshots_pushed.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
+bool Telemetry::PushEvent(const SafetyEvent& event) noexcept {
+  if (!impl_) return false;
+  if (!impl_->events.TryPush(event)) {
+    impl_->events_dropped.fetch_add(1, std::memory_order_relaxed);
+    return false;
+  }
+  impl_->events_pushed.fetch_add(1, std::memory_order_relaxed);
+  return true;
+}
+
+bool Telemetry::PopCommand(ServoCommand* command) noexcept {
+  return impl_ && impl_->commands.TryPop(command);
+}
+
+bool Telemetry::command_subscribed() const noexcept {
+  return impl_ && impl_->subscription != nullptr;
+}
+
+TelemetryStats Telemetry::stats() const noexcept {
+  return impl_ ? impl_->Stats() : TelemetryStats{};
+}
+
+TelemetryStats Telemetry::Impl::Stats() const noexcept {
+  const auto load = [](const std::atomic<std::uint64_t>& a) {
+    return a.load(std::memory_order_relaxed);
+  };
+  TelemetryStats s;
+  s.snapshots_pushed = load(snapshots_pushed);
+  s.snapshots_dropped = load(snapshots_dropped);
+  s.snapshots_published = load(snapshots_published);
+  s.events_pushed = load(events_pushed);
+  s.events_dropped = load(events_dropped);
+  s.events_published = load(events_published);
+  s.messages_published = load(messages_published);
+  s.publish_failures = load(publish_failures);
+  s.commands_received = load(commands_received);
+  s.commands_accepted = load(commands_accepted);
+  s.commands_rejected = load(commands_rejected);
+  s.commands_dropped = load(commands_dropped);
+  return s;
+}
+
+// ---- telemetry thread ----
+
+void Telemetry::Impl::Run() {
+  const int fd = subscription != nullptr ? lcm->getFileno() : -1;
+  while (!stop.load(std::memory_order_acquire)) {
+    const bool busy = DrainOnce();
+    // wait for a command (or just the idle period) only when the queues were empty
+    pollfd p{fd, POLLIN, 0};
+    const int ready = poll(fd >= 0 ? &p : nullptr, fd >= 0 ? 1 : 0, busy ? 0 : config.idle_wait_ms);
+    if (ready > 0 && (p.revents & POLLIN) != 0) lcm->handle();
+  }
+  // stop: publish what is still queued, then a final health message with the final counters
+  while (DrainOnce()) {
+  }
+  if (have_current) PublishHealth(current);
+}
+
+bool Telemetry::Impl::DrainOnce() {
+  bool any = false;
+  while (events.TryPop(&event_in)) {
+    PublishEvent(event_in);
+    events_published.fetch_add(1, std::memory_order_relaxed);
+    any = true;
+  }
+  while (snapshots.TryPop(&current)) {
+    have_current = true;
+    PublishSnapshot(current);
+    snapshots_published.fetch_add(1, std::memory_order_relaxed);
+    any = true;
+    // events raised meanwhile go out before the next snapshot
+    while (events.TryPop(&event_in)) {
+      PublishEvent(event_in);
+      events_published.fetch_add(1, std::memory_order_relaxed);
+    }
+  }
+  return any;
+}
+
+template <class M>
+void Telemetry::Impl::Publish(const std::string& channel, const M& msg) {
+  const int size = msg.getEncodedSize();
+  if (static_cast<std::size_t>(size) > buffer.size()) buffer.resize(static_cast<std::size_t>(size));
+  const int n = msg.encode(buffer.data(), 0, size);
+  bool ok = n >= 0;
+  if (ok) {
+    ok = publish_override ? publish_override(channel, buffer.data(), static_cast<std::size_t>(n))
+                          : lcm->publish(channel, buffer.data(), static_cast<unsigned>(n)) == 0;
+  }
+  (ok ? messages_published : publish_failures).fetch_add(1, std::memory_order_relaxed);
+}
+
+void Telemetry::Impl::PublishSnapshot(const TelemetrySnapshot& s) {
+  const auto publish = [&](std::uint32_t every, const std::string& channel, auto* msg) {
+    if (!Due(s.cycle, every)) return;
+    ToLcm(s, msg);
+    Publish(channel, *msg);
+  };
+  publish(config.joint_state_every, ch_joint_state, &joint_state);
+  publish(config.joint_torque_every, ch_joint_torque, &joint_torque);
+  publish(config.base_state_every, ch_base_state, &base_state);
+  publish(config.contact_every, ch_contact, &contact);
+  publish(config.timing_every, ch_timing, &timing);
+  if (Due(s.cycle, config.health_every)) PublishHealth(s);
+}
+
+void Telemetry::Impl::PublishHealth(const TelemetrySnapshot& s) {
+  hyq_lcm::lcmt_hyq_health& m = health;
+  ToLcm(s, Stats(), &m);
+  Publish(ch_health, m);
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < num_repeats; ++i) {
+    PublishEvent(repeats[i].event, false);
+    if (--repeats[i].left > 0) repeats[kept++] = repeats[i];
+  }
+  num_repeats = kept;
+}
+
+void Telemetry::Impl::PublishEvent(const SafetyEvent& e, bool repeat) {
+  if (repeat) {
+    if (num_repeats == kMaxRepeats) {  // drop the oldest
+      std::move(repeats.begin() + 1, repeats.end(), repeats.begin());
+      --num_repeats;
+    }
+    repeats[num_repeats++] = {e, 2};
+  }
+  hyq_lcm::lcmt_hyq_event& m = event;
+  ToLcm(e, &m);
+  Publish(ch_event, m);
+}
+
+// ---- command channel (telemetry thread) ----
+
+// An invalid command (not one refused for its rate or a full queue) also reaches the servo
+// thread as kRejected: a sender that emits garbage is a fault (safety.damp_on_bad_command).
+void Telemetry::Impl::TellServoInvalid(std::int64_t sequence) {
+  ServoCommand c;
+  c.kind = ServoCommand::Kind::kRejected;
+  c.sequence = static_cast<std::uint64_t>(sequence < 0 ? 0 : sequence);
+  (void)commands.TryPush(c);
+}
+
+void Telemetry::Impl::Reject(std::int64_t sequence, const char* why) {
+  commands_rejected.fetch_add(1, std::memory_order_relaxed);
+  SafetyEvent e;
+  e.cycle = have_current ? current.cycle : 0;
+  e.time_ns = have_current ? current.time_ns : 0;
+  e.from = e.to = have_current ? current.mode : ServoMode::kInit;
+  e.reason = EventReason::kCommandRejected;
+  std::snprintf(e.detail.data(), e.detail.size(), "seq %lld: %s",
+                static_cast<long long>(sequence), why);
+  PublishEvent(e);
+  events_published.fetch_add(1, std::memory_order_relaxed);
+}
+
+void Telemetry::Impl::OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
+  commands_received.fetch_add(1, std::memory_order_relaxed);
+  char why[80];
+  hyq_lcm::lcmt_hyq_command msg;
+  if (msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
+    std::snprintf(why, sizeof why, "message: expected lcmt_hyq_command, found %u undecodable bytes",
+                  rbuf->data_size);
+    TellServoInvalid(-1);  // first: whoever sees the refusal event finds the servo told already
+    Reject(-1, why);
+    return;
+  }
+  ServoCommand command;
+  if (!validator.Validate(msg, &command, why, sizeof why)) {
+    TellServoInvalid(msg.sequence);
+    Reject(msg.sequence, why);
+    return;
+  }
+  // rate limit: accepted commands at least 1 / max_rate_hz apart
+  const CommandValidator::Clock::time_point now = CommandValidator::Clock::now();
+  if (!validator.RateAllows(now, why, sizeof why)) {
+    Reject(msg.sequence, why);
+    return;
+  }
+  if (!commands.TryPush(command)) {
+    commands_dropped.fetch_add(1, std::memory_order_relaxed);
+    Reject(msg.sequence, "queue: the servo is not taking commands (command queue full)");
+    return;
+  }
+  validator.Accepted(now);
+  commands_accepted.fetch_add(1, std::memory_order_relaxed);
+}
+
+}  // namespace hyq::servo

@@ -1,0 +1,139 @@
+// The daemon's YAML fills every module's own configuration struct: each key of the telemetry and
+// command-channel sections (once shadowed by copies in the daemon's config, with other defaults)
+// reaches TelemetryConfig / CommandChannelConfig, and the command rules then apply the loaded
+// ranges (CommandValidator, no LCM instance).
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <string>
+
+#include "config/servo_config_loader.h"
+#include "hal/config_error.h"
+#include "servo/telemetry/command_channel.h"
+
+namespace hyq {
+namespace {
+
+const std::filesystem::path kConfigDir = std::filesystem::path(HYQ_SOURCE_DIR) / "config";
+
+servo::ServoConfig Parse(const std::string& extra) {
+  const std::string yaml =
+      "robot:\n  urdf: robots/hyq.urdf\n  hal: hyq_hal.yaml\ncontroller:\n  gains:\n    kp_acc: 100\n" +
+      extra;
+  return config::ParseServoConfig(yaml, "test.yaml", kConfigDir);
+}
+
+TEST(ServoConfigYaml, EveryTelemetryKeyReachesTelemetryConfig) {
+  const servo::ServoConfig c = Parse(R"(telemetry:
+  enabled: false
+  lcm_url: memq://
+  channel_prefix: ROBOT7_
+  joint_state_every: 2
+  joint_torque_every: 3
+  base_state_every: 5
+  contact_every: 7
+  timing_every: 11
+  health_every: 13
+  snapshot_queue_capacity: 64
+  event_queue_capacity: 32
+  command_queue_capacity: 8
+  idle_wait_ms: 4
+)");
+  const servo::TelemetryConfig& t = c.telemetry;
+  EXPECT_FALSE(t.enabled);
+  EXPECT_EQ(t.lcm_url, "memq://");
+  EXPECT_EQ(t.channel_prefix, "ROBOT7_");
+  EXPECT_EQ(t.joint_state_every, 2u);
+  EXPECT_EQ(t.joint_torque_every, 3u);
+  EXPECT_EQ(t.base_state_every, 5u);
+  EXPECT_EQ(t.contact_every, 7u);
+  EXPECT_EQ(t.timing_every, 11u);
+  EXPECT_EQ(t.health_every, 13u);
+  EXPECT_EQ(t.snapshot_queue_capacity, 64u);
+  EXPECT_EQ(t.event_queue_capacity, 32u);
+  EXPECT_EQ(t.command_queue_capacity, 8u);
+  EXPECT_EQ(t.idle_wait_ms, 4);
+}
+
+TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
+  const servo::ServoConfig c = Parse(R"(commands:
+  enabled: true
+  channel: ROBOT7_COMMAND
+  max_rate_hz: 3
+  mu_min: 0.05
+  mu_max: 1.2
+  gain_scale_min: 0.5
+  gain_scale_max: 1.5
+  allowed_controllers: [pid, two_stage]
+)");
+  const servo::CommandChannelConfig& k = c.commands;
+  EXPECT_TRUE(k.enabled);
+  EXPECT_EQ(k.channel, "ROBOT7_COMMAND");
+  EXPECT_DOUBLE_EQ(k.max_rate_hz, 3.0);
+  EXPECT_DOUBLE_EQ(k.mu_min, 0.05);
+  EXPECT_DOUBLE_EQ(k.mu_max, 1.2);
+  EXPECT_DOUBLE_EQ(k.gain_scale_min, 0.5);
+  EXPECT_DOUBLE_EQ(k.gain_scale_max, 1.5);
+  EXPECT_EQ(k.allowed_controllers, (std::vector<std::string>{"pid", "two_stage"}));
+
+  // the loaded ranges are the ones the command rules apply
+  const servo::CommandValidator v(k);
+  hyq_lcm::lcmt_hyq_command msg{};
+  msg.kind = hyq_lcm::lcmt_hyq_command::KIND_SET_MU;
+  msg.num_feet = 4;
+  msg.mu = {0.5, 0.5, 1.3, 0.5};
+  servo::ServoCommand out;
+  char why[96];
+  EXPECT_FALSE(v.Validate(msg, &out, why, sizeof why));
+  EXPECT_STREQ(why, "mu[2]: expected [0.05, 1.2], found 1.3");
+  msg.mu[2] = 1.2;
+  EXPECT_TRUE(v.Validate(msg, &out, why, sizeof why));
+  msg.kind = hyq_lcm::lcmt_hyq_command::KIND_SET_CONTROLLER;
+  msg.controller = "noslip";
+  EXPECT_FALSE(v.Validate(msg, &out, why, sizeof why));
+  EXPECT_STREQ(why, "controller: expected one of pid,two_stage, found 'noslip'");
+  msg.controller = "two_stage";
+  ASSERT_TRUE(v.Validate(msg, &out, why, sizeof why));
+  EXPECT_EQ(out.controller, servo::ControllerKind::kTwoStageId);
+  msg.kind = hyq_lcm::lcmt_hyq_command::KIND_SET_GAINS;
+  msg.kp_scale = 1.0;
+  msg.kd_scale = 1.6;
+  EXPECT_FALSE(v.Validate(msg, &out, why, sizeof why));
+  EXPECT_STREQ(why, "kd_scale: expected [0.5, 1.5], found 1.6");
+}
+
+TEST(ServoConfigYaml, ShippedFilesKeepTheirPublishingRates) {
+  const servo::ServoConfig robot = config::LoadServoConfig(kConfigDir / "hyq_servo.yaml");
+  EXPECT_EQ(robot.telemetry.joint_state_every, 1u);
+  EXPECT_EQ(robot.telemetry.timing_every, 10u);
+  EXPECT_EQ(robot.telemetry.health_every, 100u);
+  EXPECT_DOUBLE_EQ(robot.commands.max_rate_hz, 20.0);
+  const servo::ServoConfig sim = config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml");
+  EXPECT_EQ(sim.telemetry.joint_state_every, 4u);
+  EXPECT_EQ(sim.telemetry.contact_every, 4u);
+  EXPECT_EQ(sim.telemetry.timing_every, 40u);
+}
+
+TEST(ServoConfigYaml, BadValuesNameTheKey) {
+  const auto message = [](const std::string& extra) {
+    try {
+      (void)Parse(extra);
+    } catch (const hal::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_NE(message("telemetry:\n  state_decimation: 4\n").find("state_decimation"),
+            std::string::npos);
+  const std::string cap = message("telemetry:\n  snapshot_queue_capacity: 1000\n");
+  EXPECT_NE(cap.find("telemetry.snapshot_queue_capacity"), std::string::npos) << cap;
+  EXPECT_NE(cap.find("power of two"), std::string::npos) << cap;
+  const std::string mu = message("commands:\n  mu_min: 1.0\n  mu_max: 0.5\n");
+  EXPECT_NE(mu.find("commands.mu_max"), std::string::npos) << mu;
+  const std::string ctrl = message("commands:\n  allowed_controllers: [pid, warp]\n");
+  EXPECT_NE(ctrl.find("commands.allowed_controllers[1]"), std::string::npos) << ctrl;
+  EXPECT_NE(ctrl.find("warp"), std::string::npos) << ctrl;
+}
+
+}  // namespace
+}  // namespace hyq
