@@ -2,12 +2,62 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <stdexcept>
 #include <string>
 #include <utility>
 
 namespace hyq::servo {
+namespace {
+
+std::int64_t ReadBigEndian(const unsigned char* p, int bytes) noexcept {
+  std::uint64_t v = 0;
+  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
+  if (bytes < 8 && (v & (std::uint64_t{1} << (8 * bytes - 1))) != 0)
+    v |= ~std::uint64_t{0} << (8 * bytes);  // sign-extend
+  return static_cast<std::int64_t>(v);
+}
+
+}  // namespace
+
+bool DecodeCommand(const void* data, std::size_t size, hyq_lcm::lcmt_hyq_command* msg, char* why,
+                   std::size_t n) noexcept {
+  // layout (lcm-gen, big endian): hash 8, utime 8, sequence 8, kind 1, num_feet 1,
+  // mu 8 × num_feet, controller: int32 length (incl. NUL) + bytes, kp_scale 8, kd_scale 8
+  const auto* b = static_cast<const unsigned char*>(data);
+  constexpr std::size_t kFeetAt = 25, kFixedHead = 26, kTail = 16;
+  if (size < kFixedHead + 4 + 1 + kTail || size > (1u << 16)) {
+    std::snprintf(why, n, "message: expected lcmt_hyq_command (%zu..65536 bytes), found %zu bytes",
+                  kFixedHead + 4 + 1 + kTail, size);
+    return false;
+  }
+  const auto feet = static_cast<std::int8_t>(b[kFeetAt]);
+  const std::size_t len_at = kFixedHead + 8 * static_cast<std::size_t>(feet < 0 ? 0 : feet);
+  if (feet < 0 || len_at + 4 > size) {
+    std::snprintf(why, n, "num_feet: expected 0..%zu, found %d", (size - kFixedHead - 4) / 8,
+                  static_cast<int>(feet));
+    return false;
+  }
+  const std::int64_t text = ReadBigEndian(b + len_at, 4);
+  const std::int64_t room = static_cast<std::int64_t>(size - len_at - 4 - kTail);
+  if (text < 1 || text > room) {
+    std::snprintf(why, n, "controller: expected a string length of 1..%lld bytes, found %lld",
+                  static_cast<long long>(room), static_cast<long long>(text));
+    return false;
+  }
+  try {
+    if (msg->decode(data, 0, static_cast<int>(size)) < 0) {
+      std::snprintf(why, n, "message: expected lcmt_hyq_command, found %zu undecodable bytes", size);
+      return false;
+    }
+  } catch (...) {
+    std::snprintf(why, n, "message: expected lcmt_hyq_command, found %zu bytes the decoder refused",
+                  size);
+    return false;
+  }
+  return true;
+}
 
 CommandValidator::CommandValidator(const CommandChannelConfig& c) : config_(c) {
   if (c.enabled) CheckRanges(c);

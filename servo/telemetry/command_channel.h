@@ -15,6 +15,13 @@
 
 namespace hyq::servo {
 
+/// Decodes one datagram as lcmt_hyq_command without trusting its length fields: a negative
+/// foot count, a string length of 0 or beyond the datagram, a wrong hash or a short buffer is
+/// refused (false, `why` says what was expected and found); nothing thrown escapes (the generated
+/// decoder throws std::length_error on a negative count).
+bool DecodeCommand(const void* data, std::size_t size, hyq_lcm::lcmt_hyq_command* msg, char* why,
+                   std::size_t why_size) noexcept;
+
 class CommandValidator {
  public:
   using Clock = std::chrono::steady_clock;

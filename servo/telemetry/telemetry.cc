@@ -87,6 +87,7 @@ struct Telemetry::Impl {
   std::vector<std::uint8_t> buffer;
 
   void Run();
+  void HandleOne() noexcept;
   bool DrainOnce();
   void PublishSnapshot(const TelemetrySnapshot& s);
   void PublishHealth(const TelemetrySnapshot& s);
@@ -210,12 +211,24 @@ void Telemetry::Impl::Run() {
     // wait for a command (or just the idle period) only when the queues were empty
     pollfd p{fd, POLLIN, 0};
     const int ready = poll(fd >= 0 ? &p : nullptr, fd >= 0 ? 1 : 0, busy ? 0 : config.idle_wait_ms);
-    if (ready > 0 && (p.revents & POLLIN) != 0) lcm->handle();
+    if (ready > 0 && (p.revents & POLLIN) != 0) HandleOne();
   }
   // stop: publish what is still queued, then a final health message with the final counters
   while (DrainOnce()) {
   }
   if (have_current) PublishHealth(current);
+}
+
+// One lcm->handle(): a handler that throws (a decoder, an allocation) costs that message, never
+// the thread (an exception escaping std::thread would terminate the daemon).
+void Telemetry::Impl::HandleOne() noexcept {
+  try {
+    lcm->handle();
+  } catch (...) {
+    commands_received.fetch_add(1, std::memory_order_relaxed);
+    TellServoInvalid(-1);
+    Reject(-1, "message: an exception in the command handler (message dropped)");
+  }
 }
 
 bool Telemetry::Impl::DrainOnce() {
@@ -317,11 +330,9 @@ void Telemetry::Impl::Reject(std::int64_t sequence, const char* why) {
 
 void Telemetry::Impl::OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
   commands_received.fetch_add(1, std::memory_order_relaxed);
-  char why[80];
+  char why[kEventDetailSize];
   hyq_lcm::lcmt_hyq_command msg;
-  if (msg.decode(rbuf->data, 0, static_cast<int>(rbuf->data_size)) < 0) {
-    std::snprintf(why, sizeof why, "message: expected lcmt_hyq_command, found %u undecodable bytes",
-                  rbuf->data_size);
+  if (!DecodeCommand(rbuf->data, rbuf->data_size, &msg, why, sizeof why)) {
     TellServoInvalid(-1);  // first: whoever sees the refusal event finds the servo told already
     Reject(-1, why);
     return;

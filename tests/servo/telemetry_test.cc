@@ -545,6 +545,43 @@ TEST_F(CommandChannel, ValidatesAndRateLimits) {
   EXPECT_EQ(st.commands_rejected, 7u);
 }
 
+// A datagram that made the generated decoder throw inside the LCM handler (num_feet = -1, or a
+// zero-length string) is a rejected command with an event; the telemetry thread lives on and
+// takes the next valid command.
+TEST_F(CommandChannel, MalformedDatagramIsRejectedAndTheThreadLivesOn) {
+  TelemetryConfig config;
+  config.lcm_url = kUrl;
+  CommandChannelConfig commands;
+  commands.enabled = true;
+  commands.max_rate_hz = 1000.0;
+  Telemetry telemetry(config, commands);
+  telemetry.Start();
+  hyq_lcm::lcmt_hyq_command c = Command(hyq_lcm::lcmt_hyq_command::KIND_ENABLE, 1);
+  std::vector<unsigned char> b(static_cast<std::size_t>(c.getEncodedSize()));
+  ASSERT_GT(c.encode(b.data(), 0, static_cast<int>(b.size())), 0);
+  b[25] = 0xff;  // num_feet = -1
+  ASSERT_EQ(sender_->publish("HYQ_COMMAND", b.data(), static_cast<unsigned>(b.size())), 0);
+  auto e = NextRejection();
+  EXPECT_NE(e.detail.find("num_feet: expected 0.."), std::string::npos) << e.detail;
+  b[25] = 0;
+  for (int i = 0; i < 4; ++i) b[26 + i] = 0;  // a zero-length string
+  ASSERT_EQ(sender_->publish("HYQ_COMMAND", b.data(), static_cast<unsigned>(b.size())), 0);
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("controller: expected a string length"), std::string::npos) << e.detail;
+  ServoCommand got;
+  ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
+  EXPECT_EQ(got.kind, ServoCommand::Kind::kRejected);  // the servo hears of it (safe state)
+  while (telemetry.PopCommand(&got)) {
+  }
+  c.sequence = 2;
+  Send(c);
+  ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
+  EXPECT_EQ(got.kind, ServoCommand::Kind::kEnable);
+  EXPECT_EQ(got.sequence, 2u);
+  telemetry.Stop();
+  EXPECT_EQ(telemetry.stats().commands_rejected, 2u);
+}
+
 TEST_F(CommandChannel, DisabledMeansNoSubscription) {
   TelemetryConfig config;
   config.lcm_url = kUrl;
