@@ -12,6 +12,8 @@
 #include <sstream>
 #include <initializer_list>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "hal/config_error.h"
 
@@ -104,10 +106,17 @@ class Reader {
     return map[key].IsDefined() ? Number(map, path, key) : d;
   }
 
+  // Unknown keys and keys given twice are errors (yaml-cpp keeps the first of two silently).
   void Keys(const YAML::Node& map, const std::string& path,
             std::initializer_list<const char*> allowed) const {
+    std::vector<std::pair<std::string, int>> seen;
     for (const auto& kv : map) {
       const std::string k = kv.first.as<std::string>();
+      for (const auto& [name, line] : seen)
+        if (name == k)
+          Fail(kv.first, Join(path, k), "each key once",
+               "'" + k + "' a second time (first on line " + std::to_string(line) + ")");
+      seen.emplace_back(k, kv.first.Mark().line + 1);
       bool ok = false;
       std::string list;
       for (const char* a : allowed) {

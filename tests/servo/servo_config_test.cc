@@ -130,6 +130,9 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
   EXPECT_NE(cap.find("power of two"), std::string::npos) << cap;
   const std::string mu = message("commands:\n  mu_min: 1.0\n  mu_max: 0.5\n");
   EXPECT_NE(mu.find("commands.mu_max"), std::string::npos) << mu;
+  const std::string twice = message("commands:\n  max_rate_hz: 5\n  enabled: true\n  max_rate_hz: 50\n");
+  EXPECT_NE(twice.find("commands.max_rate_hz"), std::string::npos) << twice;
+  EXPECT_NE(twice.find("a second time (first on line"), std::string::npos) << twice;
   const std::string ctrl = message("commands:\n  allowed_controllers: [pid, warp]\n");
   EXPECT_NE(ctrl.find("commands.allowed_controllers[1]"), std::string::npos) << ctrl;
   EXPECT_NE(ctrl.find("warp"), std::string::npos) << ctrl;
