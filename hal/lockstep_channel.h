@@ -5,6 +5,8 @@
 // construction.
 #pragma once
 
+#include <bitset>
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -27,6 +29,9 @@ class LockstepChannel : public CanChannel {
 
   /// Moves pending frames into the buffer; returns the TPDOs buffered and not yet received.
   int Pump() noexcept;
+  /// Whether a TPDO from `node` is among them (per device, so that a stray TPDO of another
+  /// node cannot stand in for a device's answer).
+  bool has_tpdo_from(std::uint8_t node) const noexcept { return node < 128 && tpdo_nodes_[node]; }
   /// Frames buffered by Pump and not yet received.
   std::size_t buffered() const noexcept { return tail_ - head_; }
 
@@ -35,6 +40,7 @@ class LockstepChannel : public CanChannel {
   std::vector<CanFrame> buffer_;
   std::size_t head_ = 0, tail_ = 0;
   int tpdos_ = 0;
+  std::bitset<128> tpdo_nodes_;  // CANopen node ids with a buffered TPDO
 };
 
 }  // namespace hyq::hal

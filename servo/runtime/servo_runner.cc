@@ -17,6 +17,16 @@ bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channe
   int expected = 0;
   for (std::size_t b = 0; b < hal.num_buses(); ++b)
     for (const auto& d : hal.bus(b).devices()) expected += d.expect_inputs ? 1 : 0;
+  // one channel per bus, in the HAL's order: each device that owes an answer must have sent a
+  // TPDO on its own bus (a stray TPDO of another node does not count)
+  const bool per_device = channels.size() == hal.num_buses();
+  const auto answered = [&] {
+    int got = 0;
+    for (std::size_t b = 0; b < hal.num_buses(); ++b)
+      for (const auto& d : hal.bus(b).devices())
+        got += d.expect_inputs && channels[b]->has_tpdo_from(d.node) ? 1 : 0;
+    return got;
+  };
   std::array<pollfd, hal::kMaxBuses> fds{};
   std::size_t nfds = 0;
   for (LockstepChannel* c : channels)
@@ -26,6 +36,7 @@ bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channe
   for (;;) {
     int got = 0;
     for (LockstepChannel* c : channels) got += c->Pump();
+    if (per_device) got = answered();
     if (expected > 0 && got >= expected) return true;
     const std::int64_t left = end - MonotonicNs();
     if (left <= 0) return expected == 0;

@@ -4,6 +4,7 @@
 
 #include <array>
 
+#include "hal/lockstep_channel.h"
 #include "hal/protocol.h"
 
 namespace hyq::hal {
@@ -61,6 +62,39 @@ TEST(LoopbackBus, ClassicBusRefusesFdFramesAndBusOffStopsTraffic) {
   bus.SetBusOff(false);
   EXPECT_EQ(bus.endpoint(0).Send({&f, 1}, &sent), CanStatus::kOk);
   EXPECT_EQ(bus.endpoint(1).pending(), 1u);
+}
+
+// A non-owning view of a bus endpoint (LockstepChannel owns what it wraps).
+class EndpointView : public CanChannel {
+ public:
+  explicit EndpointView(CanChannel& c) : c_(c) {}
+  CanStatus Send(std::span<const CanFrame> f, std::size_t* n) noexcept override { return c_.Send(f, n); }
+  CanStatus Receive(std::span<CanFrame> f, std::size_t* n) noexcept override { return c_.Receive(f, n); }
+  const CanCounters& counters() const noexcept override { return c_.counters(); }
+  bool fd_enabled() const noexcept override { return c_.fd_enabled(); }
+  std::string_view name() const noexcept override { return c_.name(); }
+
+ private:
+  CanChannel& c_;
+};
+
+// Lock-step waits count answers per device: a TPDO from node 3 says nothing about node 4.
+TEST(LockstepChannel, KnowsWhichNodesAnswered) {
+  LoopbackBus bus("t", 2, 16, true);
+  LockstepChannel ls(std::make_unique<EndpointView>(bus.endpoint(0)));
+  const std::array<CanFrame, 3> frames{EncodeActuatorTpdo(3, {}), EncodeSync(1),
+                                       EncodeHeartbeat(4, NmtState::kOperational)};
+  std::size_t sent = 0;
+  ASSERT_EQ(bus.endpoint(1).Send(frames, &sent), CanStatus::kOk);
+  EXPECT_EQ(ls.Pump(), 1);
+  EXPECT_TRUE(ls.has_tpdo_from(3));
+  EXPECT_FALSE(ls.has_tpdo_from(4));  // a heartbeat is not an answer
+  std::array<CanFrame, 8> rx;
+  std::size_t n = 0;
+  EXPECT_EQ(ls.Receive(rx, &n), CanStatus::kOk);
+  EXPECT_EQ(n, 3u);  // the HAL gets every frame, in order
+  EXPECT_EQ(rx[0].id, frames[0].id);
+  EXPECT_FALSE(ls.has_tpdo_from(3));  // taken: the next SYNC starts afresh
 }
 
 }  // namespace
