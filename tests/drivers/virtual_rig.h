@@ -14,18 +14,13 @@
 
 #include "config/hal_config_loader.h"
 #include "drivers/channel_factory.h"
+#include "hal/clock.h"
 #include "hal/emulator.h"
 #include "hal/hal.h"
 #include "hal/lockstep_channel.h"
 #include "hal/protocol.h"
 
 namespace hyq::testing {
-
-inline std::int64_t MonotonicNs() {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
-}
 
 struct VirtualRig {
   explicit VirtualRig(int first_port) : cfg(config::LoadHalConfig(HYQ_HAL_CONFIG)) {

@@ -16,6 +16,7 @@
 #include "config/hal_config_loader.h"
 #include "drivers/channel_factory.h"
 #include "dynamics/urdf_loader.h"
+#include "hal/clock.h"
 #include "hal/hal.h"
 #include "hal/loopback_bus.h"
 #include "tests/drivers/virtual_rig.h"
