@@ -28,17 +28,6 @@ const char* ToString(HalStatus s) noexcept {
   return "unknown";
 }
 
-const char* ToString(InputStatus s) noexcept {
-  switch (s) {
-    case InputStatus::kValid: return "valid";
-    case InputStatus::kMissing: return "missing";
-    case InputStatus::kDuplicate: return "duplicate";
-    case InputStatus::kDeviceFault: return "device_fault";
-    case InputStatus::kNotOperational: return "not_operational";
-  }
-  return "unknown";
-}
-
 // ---------------------------------------------------------------------------------------------
 // Bus
 
