@@ -2,13 +2,14 @@
 
 #include <cerrno>
 #include <cstring>
-#include <ctime>
 #include <fstream>
 #include <sstream>
 #include <utility>
 
 #include "drivers/channel_error.h"
 #include "drivers/msgpack_frame.h"
+#include "drivers/socket_util.h"
+#include "hal/clock.h"
 
 namespace hyq::drivers {
 namespace {
@@ -66,12 +67,6 @@ class Out {
   std::size_t pos_ = 0;
   bool ok_ = true;
 };
-
-std::int64_t MonotonicNs() noexcept {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return std::int64_t{ts.tv_sec} * 1'000'000'000 + ts.tv_nsec;
-}
 
 std::string Quoted(std::string_view line) {
   constexpr std::size_t kMaxShown = 120;
@@ -410,11 +405,10 @@ RecordingChannel::RecordingChannel(hal::CanChannel* inner, CandumpWriter* writer
 CanStatus RecordingChannel::Send(std::span<const CanFrame> frames, std::size_t* sent) noexcept {
   const CanStatus s = inner_->Send(frames, sent);
   if (record_sent_) {
-    timespec ts{};
-    clock_gettime(CLOCK_REALTIME, &ts);
+    const std::int64_t now_ns = internal::RealtimeNs();
     for (std::size_t i = 0; i < *sent; ++i) {
       CanFrame f = frames[i];
-      f.timestamp_ns = std::int64_t{ts.tv_sec} * 1'000'000'000 + ts.tv_nsec;
+      f.timestamp_ns = now_ns;
       (void)writer_->Write(f);
     }
   }

@@ -40,6 +40,50 @@ RxAncillary ParseRxAncillary(const msghdr& msg) noexcept {
   return a;
 }
 
+void MmsgBuffers::Allocate(std::size_t batch, std::size_t tx_slot, std::size_t rx_slot,
+                           bool rx_source_addresses) {
+  tx_slot_bytes = tx_slot;
+  rx_slot_bytes = rx_slot;
+  tx_bytes.assign(batch * tx_slot, 0);
+  rx_bytes.assign(batch * rx_slot, 0);
+  rx_control.assign(batch * RxControlBytes(), 0);
+  tx_iov.assign(batch, iovec{});
+  rx_iov.assign(batch, iovec{});
+  tx_msgs.assign(batch, mmsghdr{});
+  rx_msgs.assign(batch, mmsghdr{});
+  rx_from.assign(rx_source_addresses ? batch : 0, sockaddr_in{});
+  for (std::size_t i = 0; i < batch; ++i) {
+    tx_iov[i].iov_base = tx_bytes.data() + i * tx_slot;
+    tx_msgs[i].msg_hdr.msg_iov = &tx_iov[i];
+    tx_msgs[i].msg_hdr.msg_iovlen = 1;
+    rx_iov[i].iov_base = rx_bytes.data() + i * rx_slot;
+    rx_iov[i].iov_len = rx_slot;
+    rx_msgs[i].msg_hdr.msg_iov = &rx_iov[i];
+    rx_msgs[i].msg_hdr.msg_iovlen = 1;
+    if (rx_source_addresses) rx_msgs[i].msg_hdr.msg_name = &rx_from[i];
+    rx_msgs[i].msg_hdr.msg_control = rx_control.data() + i * RxControlBytes();
+  }
+}
+
+int ReceivePrepared(int fd, MmsgBuffers* b, std::size_t want, hal::CanCounters* counters) noexcept {
+  const socklen_t name_bytes = b->rx_from.empty() ? 0 : socklen_t{sizeof(sockaddr_in)};
+  for (std::size_t i = 0; i < want; ++i) {
+    msghdr& h = b->rx_msgs[i].msg_hdr;
+    h.msg_namelen = name_bytes;
+    h.msg_controllen = RxControlBytes();
+    h.msg_flags = 0;
+  }
+  int r;
+  do {
+    r = recvmmsg(fd, b->rx_msgs.data(), static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
+  } while (r < 0 && errno == EINTR);
+  if (r >= 0) return r;
+  if (errno == EAGAIN || errno == EWOULDBLOCK) return 0;
+  counters->last_errno = errno;
+  ++counters->io_errors;
+  return -1;
+}
+
 std::int64_t RealtimeNs() noexcept {
   timespec ts{};
   clock_gettime(CLOCK_REALTIME, &ts);

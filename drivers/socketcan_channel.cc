@@ -146,24 +146,7 @@ SocketCanChannel::SocketCanChannel(const SocketCanOptions& options) : options_(o
   if (bind(sock_, reinterpret_cast<const sockaddr*>(&addr), sizeof addr) != 0)
     fail("bind to " + ifn, errno);
 
-  const std::size_t n = options_.batch;
-  tx_bytes_.assign(n * kSlotBytes, 0);
-  rx_bytes_.assign(n * kSlotBytes, 0);
-  rx_control_.assign(n * internal::RxControlBytes(), 0);
-  tx_iov_.assign(n, iovec{});
-  rx_iov_.assign(n, iovec{});
-  tx_msgs_.assign(n, mmsghdr{});
-  rx_msgs_.assign(n, mmsghdr{});
-  for (std::size_t i = 0; i < n; ++i) {
-    tx_iov_[i].iov_base = tx_bytes_.data() + i * kSlotBytes;
-    tx_msgs_[i].msg_hdr.msg_iov = &tx_iov_[i];
-    tx_msgs_[i].msg_hdr.msg_iovlen = 1;
-    rx_iov_[i].iov_base = rx_bytes_.data() + i * kSlotBytes;
-    rx_iov_[i].iov_len = kSlotBytes;
-    rx_msgs_[i].msg_hdr.msg_iov = &rx_iov_[i];
-    rx_msgs_[i].msg_hdr.msg_iovlen = 1;
-    rx_msgs_[i].msg_hdr.msg_control = rx_control_.data() + i * internal::RxControlBytes();
-  }
+  mmsg_.Allocate(options_.batch, kSlotBytes, kSlotBytes, /*rx_source_addresses=*/false);
 }
 
 SocketCanChannel::~SocketCanChannel() { Close(); }
@@ -201,11 +184,10 @@ CanStatus SocketCanChannel::Send(std::span<const CanFrame> frames, std::size_t* 
   *sent = 0;
   if (sock_ < 0) return CanStatus::kClosed;
   if (counters_.bus_state == BusState::kBusOff) return CanStatus::kBusOff;
-  return internal::SendBatched(
-      sock_, frames, options_.batch, tx_msgs_.data(), tx_iov_.data(), sent, &counters_,
-      [this](const CanFrame& f, std::size_t slot) -> std::size_t {
-        return (f.is_fd() && !fd_) ? 0 : ToKernel(f, tx_bytes_.data() + slot * kSlotBytes);
-      });
+  return internal::SendBatched(sock_, frames, &mmsg_, sent, &counters_,
+                               [this](const CanFrame& f, std::size_t slot) -> std::size_t {
+                                 return (f.is_fd() && !fd_) ? 0 : ToKernel(f, mmsg_.tx_slot(slot));
+                               });
 }
 
 CanStatus SocketCanChannel::Receive(std::span<CanFrame> out, std::size_t* received) noexcept {
@@ -213,31 +195,18 @@ CanStatus SocketCanChannel::Receive(std::span<CanFrame> out, std::size_t* receiv
   if (sock_ < 0) return CanStatus::kClosed;
   while (*received < out.size()) {
     const std::size_t want = std::min(options_.batch, out.size() - *received);
-    for (std::size_t i = 0; i < want; ++i) {
-      msghdr& h = rx_msgs_[i].msg_hdr;
-      h.msg_controllen = internal::RxControlBytes();
-      h.msg_flags = 0;
-    }
-    int r;
-    do {
-      r = recvmmsg(sock_, rx_msgs_.data(), static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
-    } while (r < 0 && errno == EINTR);
-    if (r < 0) {
-      if (errno == EAGAIN || errno == EWOULDBLOCK) break;
-      counters_.last_errno = errno;
-      ++counters_.io_errors;
-      return CanStatus::kIoError;
-    }
+    const int r = internal::ReceivePrepared(sock_, &mmsg_, want, &counters_);
+    if (r < 0) return CanStatus::kIoError;
     for (int i = 0; i < r; ++i) {
       const auto k = static_cast<std::size_t>(i);
-      const msghdr& h = rx_msgs_[k].msg_hdr;
+      const msghdr& h = mmsg_.rx_msgs[k].msg_hdr;
       const internal::RxAncillary anc = internal::ParseRxAncillary(h);
       if (anc.have_drops && anc.drops > socket_drops_) {
         socket_drops_ = anc.drops;
         counters_.rx_overflow = socket_drops_ + controller_overflows_;
       }
       CanFrame& f = out[*received];
-      if (!FromKernel(rx_bytes_.data() + k * kSlotBytes, rx_msgs_[k].msg_len, &f)) {
+      if (!FromKernel(mmsg_.rx_slot(k), mmsg_.rx_msgs[k].msg_len, &f)) {
         ++counters_.bad_frames;
         continue;
       }

@@ -16,11 +16,9 @@
 // do (CAN_RAW_LOOPBACK stays on).
 #pragma once
 
-#include <sys/socket.h>
-
 #include <string>
-#include <vector>
 
+#include "drivers/socket_util.h"
 #include "hal/can_channel.h"
 
 namespace hyq::drivers {
@@ -64,9 +62,7 @@ class SocketCanChannel final : public hal::CanChannel {
   hal::CanCounters counters_;
   std::uint64_t socket_drops_ = 0;          // SO_RXQ_OVFL, cumulative
   std::uint64_t controller_overflows_ = 0;  // CAN_ERR_CRTL_RX_OVERFLOW reports
-  std::vector<std::uint8_t> tx_bytes_, rx_bytes_, rx_control_;
-  std::vector<iovec> tx_iov_, rx_iov_;
-  std::vector<mmsghdr> tx_msgs_, rx_msgs_;
+  internal::MmsgBuffers mmsg_;              // all per-call memory, sized at open
 };
 
 /// True when this kernel can open AF_CAN raw sockets (false here: CONFIG_CAN is unset).

@@ -106,26 +106,8 @@ UdpMulticastChannel::UdpMulticastChannel(const UdpMulticastOptions& options) : o
     fail("getsockname", errno);
 
   // every buffer the per-cycle calls use
-  const std::size_t n = options_.batch;
-  tx_bytes_.assign(n * kMaxDatagramBytes, 0);
-  rx_bytes_.assign(n * kRxDatagramBytes, 0);
-  rx_control_.assign(n * internal::RxControlBytes(), 0);
-  tx_iov_.assign(n, iovec{});
-  rx_iov_.assign(n, iovec{});
-  tx_msgs_.assign(n, mmsghdr{});
-  rx_msgs_.assign(n, mmsghdr{});
-  rx_from_.assign(n, sockaddr_in{});
-  for (std::size_t i = 0; i < n; ++i) {
-    tx_iov_[i].iov_base = tx_bytes_.data() + i * kMaxDatagramBytes;
-    tx_msgs_[i].msg_hdr.msg_iov = &tx_iov_[i];
-    tx_msgs_[i].msg_hdr.msg_iovlen = 1;
-    rx_iov_[i].iov_base = rx_bytes_.data() + i * kRxDatagramBytes;
-    rx_iov_[i].iov_len = kRxDatagramBytes;
-    rx_msgs_[i].msg_hdr.msg_iov = &rx_iov_[i];
-    rx_msgs_[i].msg_hdr.msg_iovlen = 1;
-    rx_msgs_[i].msg_hdr.msg_name = &rx_from_[i];
-    rx_msgs_[i].msg_hdr.msg_control = rx_control_.data() + i * internal::RxControlBytes();
-  }
+  mmsg_.Allocate(options_.batch, kMaxDatagramBytes, kRxDatagramBytes,
+                 /*rx_source_addresses=*/true);
 }
 
 UdpMulticastChannel::~UdpMulticastChannel() { Close(); }
@@ -152,10 +134,9 @@ CanStatus UdpMulticastChannel::Send(std::span<const CanFrame> frames, std::size_
   if (bus_off_) return CanStatus::kBusOff;
   const double now_s = static_cast<double>(internal::RealtimeNs()) * 1e-9;
   return internal::SendBatched(
-      tx_fd_, frames, options_.batch, tx_msgs_.data(), tx_iov_.data(), sent, &counters_,
+      tx_fd_, frames, &mmsg_, sent, &counters_,
       [this, now_s](const CanFrame& f, std::size_t slot) -> std::size_t {
-        const std::span<std::uint8_t> buf(tx_bytes_.data() + slot * kMaxDatagramBytes,
-                                          kMaxDatagramBytes);
+        const std::span<std::uint8_t> buf(mmsg_.tx_slot(slot), kMaxDatagramBytes);
         return (f.is_fd() && !options_.fd) ? 0 : EncodeFrameDatagram(f, now_s, buf);
       });
 }
@@ -165,38 +146,22 @@ CanStatus UdpMulticastChannel::Receive(std::span<CanFrame> out, std::size_t* rec
   if (rx_fd_ < 0) return CanStatus::kClosed;
   while (*received < out.size()) {
     const std::size_t want = std::min(options_.batch, out.size() - *received);
-    for (std::size_t i = 0; i < want; ++i) {
-      msghdr& h = rx_msgs_[i].msg_hdr;
-      h.msg_namelen = sizeof(sockaddr_in);
-      h.msg_controllen = internal::RxControlBytes();
-      h.msg_flags = 0;
-    }
-    int r;
-    do {
-      r = recvmmsg(rx_fd_, rx_msgs_.data(), static_cast<unsigned>(want), MSG_DONTWAIT, nullptr);
-    } while (r < 0 && errno == EINTR);
-    if (r < 0) {
-      if (errno == EAGAIN || errno == EWOULDBLOCK) break;
-      counters_.last_errno = errno;
-      ++counters_.io_errors;
-      return CanStatus::kIoError;
-    }
+    const int r = internal::ReceivePrepared(rx_fd_, &mmsg_, want, &counters_);
+    if (r < 0) return CanStatus::kIoError;
     for (int i = 0; i < r; ++i) {
-      const msghdr& h = rx_msgs_[static_cast<std::size_t>(i)].msg_hdr;
+      const auto k = static_cast<std::size_t>(i);
+      const msghdr& h = mmsg_.rx_msgs[k].msg_hdr;
       const internal::RxAncillary anc = internal::ParseRxAncillary(h);
       if (anc.have_drops && anc.drops > counters_.rx_overflow) counters_.rx_overflow = anc.drops;
-      const sockaddr_in& from = rx_from_[static_cast<std::size_t>(i)];
+      const sockaddr_in& from = mmsg_.rx_from[k];
       const bool own = from.sin_port == tx_local_.sin_port &&
                        (tx_local_.sin_addr.s_addr == htonl(INADDR_ANY) ||
                         from.sin_addr.s_addr == tx_local_.sin_addr.s_addr);
       if (own) continue;
       CanFrame& f = out[*received];
-      const std::size_t bytes = rx_msgs_[static_cast<std::size_t>(i)].msg_len;
+      const std::size_t bytes = mmsg_.rx_msgs[k].msg_len;
       const bool truncated = (h.msg_flags & MSG_TRUNC) != 0;
-      if (truncated ||
-          DecodeFrameDatagram({rx_bytes_.data() + static_cast<std::size_t>(i) * kRxDatagramBytes,
-                               bytes},
-                              &f) != MsgpackError::kOk ||
+      if (truncated || DecodeFrameDatagram({mmsg_.rx_slot(k), bytes}, &f) != MsgpackError::kOk ||
           (f.is_fd() && !options_.fd)) {
         ++counters_.bad_frames;
         continue;

@@ -16,12 +16,11 @@
 #pragma once
 
 #include <netinet/in.h>
-#include <sys/socket.h>
 
 #include <cstdint>
 #include <string>
-#include <vector>
 
+#include "drivers/socket_util.h"
 #include "hal/can_channel.h"
 
 namespace hyq::drivers {
@@ -77,11 +76,7 @@ class UdpMulticastChannel final : public hal::CanChannel {
   bool bus_off_ = false;
   hal::CanCounters counters_;
 
-  // all per-call memory, sized at open
-  std::vector<std::uint8_t> tx_bytes_, rx_bytes_, rx_control_;
-  std::vector<iovec> tx_iov_, rx_iov_;
-  std::vector<mmsghdr> tx_msgs_, rx_msgs_;
-  std::vector<sockaddr_in> rx_from_;
+  internal::MmsgBuffers mmsg_;  // all per-call memory, sized at open
 };
 
 }  // namespace hyq::drivers

@@ -1,5 +1,7 @@
 #include "hal/device_state_machine.h"
 
+#include <optional>
+
 namespace hyq::hal {
 namespace {
 
@@ -106,6 +108,24 @@ DeviceState PreOpTimeout(DeviceRuntime& d, StateMachineContext&) noexcept {
   return DeviceState::kInit;
 }
 
+// What SAFE-OP and OP share: a boot-up (the device reset), a heartbeat other than OPERATIONAL or
+// an EMCY other than "no error" is a fault (-> INIT, PRE-OP, SAFE-OP); nullopt for anything else.
+std::optional<DeviceState> OperationalFault(DeviceRuntime& d, const DeviceEvent& e) noexcept {
+  switch (e.kind) {
+    case DeviceEventKind::kBootUp:
+      return Fault(d, DeviceError::kUnexpectedReset, DeviceState::kInit);
+    case DeviceEventKind::kHeartbeat:
+      if (e.nmt != NmtState::kOperational)
+        return Fault(d, DeviceError::kLeftOperational, DeviceState::kPreOp);
+      break;
+    case DeviceEventKind::kEmcy:
+      if (e.emcy_code != emcy::kNoError) return Fault(d, DeviceError::kEmcy, DeviceState::kSafeOp);
+      break;
+    case DeviceEventKind::kInputs: break;
+  }
+  return std::nullopt;
+}
+
 // SAFE-OP: inputs valid, outputs held safe (0 N·m, not enabled). Enable when OP is wanted, no
 // error is latched and the inputs have been valid for min_valid_cycles_for_op cycles.
 DeviceState SafeOpEnter(DeviceRuntime& d, StateMachineContext&) noexcept {
@@ -114,22 +134,11 @@ DeviceState SafeOpEnter(DeviceRuntime& d, StateMachineContext&) noexcept {
   return DeviceState::kSafeOp;
 }
 DeviceState SafeOpFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineContext&) noexcept {
-  switch (e.kind) {
-    case DeviceEventKind::kBootUp: return Fault(d, DeviceError::kUnexpectedReset, DeviceState::kInit);
-    case DeviceEventKind::kHeartbeat:
-      if (e.nmt != NmtState::kOperational)
-        return Fault(d, DeviceError::kLeftOperational, DeviceState::kPreOp);
-      break;
-    case DeviceEventKind::kEmcy:
-      if (e.emcy_code != emcy::kNoError) Fault(d, DeviceError::kEmcy, DeviceState::kSafeOp);
-      break;
-    case DeviceEventKind::kInputs:
-      if (d.kind == DeviceKind::kActuator && d.target == DeviceState::kOp && d.enable_requested &&
-          !d.error_latched && (e.status & status_bit::kEnabled) != 0 &&
-          (e.status & status_bit::kFault) == 0)
-        return DeviceState::kOp;
-      break;
-  }
+  if (const std::optional<DeviceState> next = OperationalFault(d, e)) return *next;
+  if (e.kind == DeviceEventKind::kInputs && d.kind == DeviceKind::kActuator &&
+      d.target == DeviceState::kOp && d.enable_requested && !d.error_latched &&
+      (e.status & status_bit::kEnabled) != 0 && (e.status & status_bit::kFault) == 0)
+    return DeviceState::kOp;
   return DeviceState::kSafeOp;
 }
 DeviceState SafeOpCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
@@ -160,22 +169,12 @@ DeviceState OpEnter(DeviceRuntime& d, StateMachineContext&) noexcept {
   return DeviceState::kOp;
 }
 DeviceState OpFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineContext&) noexcept {
-  switch (e.kind) {
-    case DeviceEventKind::kBootUp: return Fault(d, DeviceError::kUnexpectedReset, DeviceState::kInit);
-    case DeviceEventKind::kHeartbeat:
-      if (e.nmt != NmtState::kOperational)
-        return Fault(d, DeviceError::kLeftOperational, DeviceState::kPreOp);
-      break;
-    case DeviceEventKind::kEmcy:
-      if (e.emcy_code != emcy::kNoError)
-        return Fault(d, DeviceError::kEmcy, DeviceState::kSafeOp);
-      break;
-    case DeviceEventKind::kInputs:
-      if ((e.status & status_bit::kFault) != 0)
-        return Fault(d, DeviceError::kDeviceFault, DeviceState::kSafeOp);
-      if (d.kind == DeviceKind::kActuator && (e.status & status_bit::kEnabled) == 0)
-        return Fault(d, DeviceError::kDeviceDisabled, DeviceState::kSafeOp);
-      break;
+  if (const std::optional<DeviceState> next = OperationalFault(d, e)) return *next;
+  if (e.kind == DeviceEventKind::kInputs) {
+    if ((e.status & status_bit::kFault) != 0)
+      return Fault(d, DeviceError::kDeviceFault, DeviceState::kSafeOp);
+    if (d.kind == DeviceKind::kActuator && (e.status & status_bit::kEnabled) == 0)
+      return Fault(d, DeviceError::kDeviceDisabled, DeviceState::kSafeOp);
   }
   return DeviceState::kOp;
 }

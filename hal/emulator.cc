@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "hal/calibration.h"
 #include "hal/config_error.h"
@@ -293,28 +294,34 @@ void Emulator::Poll(std::int64_t now_ns) noexcept {
   }
 }
 
+const Emulator::Device* Emulator::JointDevice(int joint) const noexcept {
+  if (joint < 0 || joint >= kNumJoints) return nullptr;
+  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
+  return index < 0 ? nullptr : &devices_[static_cast<std::size_t>(index)];
+}
+
+Emulator::Device* Emulator::JointDevice(int joint) noexcept {
+  return const_cast<Device*>(std::as_const(*this).JointDevice(joint));
+}
+
 void Emulator::SetJointState(int joint, double position_rad, double velocity_rad_s,
                              double torque_Nm) noexcept {
-  if (joint < 0 || joint >= kNumJoints) return;
-  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
-  if (index < 0) return;
-  Device& d = devices_[static_cast<std::size_t>(index)];
+  Device* d = JointDevice(joint);
+  if (d == nullptr) return;
   const JointCalibration& c = config_.joints[static_cast<std::size_t>(joint)];
-  d.position_counts = RadToEncoderCounts(c, position_rad);
-  d.velocity_counts_s = RadPerSecToEncoderRate(c, velocity_rad_s);
-  d.effort_counts = TorqueToEffortCounts(c, torque_Nm, position_rad);
+  d->position_counts = RadToEncoderCounts(c, position_rad);
+  d->velocity_counts_s = RadPerSecToEncoderRate(c, velocity_rad_s);
+  d->effort_counts = TorqueToEffortCounts(c, torque_Nm, position_rad);
 }
 
 void Emulator::SetJointSensor(int joint, double position_rad, double velocity_rad_s,
                               double sensor_value) noexcept {
-  if (joint < 0 || joint >= kNumJoints) return;
-  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
-  if (index < 0) return;
-  Device& d = devices_[static_cast<std::size_t>(index)];
+  Device* d = JointDevice(joint);
+  if (d == nullptr) return;
   const JointCalibration& c = config_.joints[static_cast<std::size_t>(joint)];
-  d.position_counts = RadToEncoderCounts(c, position_rad);
-  d.velocity_counts_s = RadPerSecToEncoderRate(c, velocity_rad_s);
-  d.effort_counts = SensorValueToEffortCounts(c, sensor_value);
+  d->position_counts = RadToEncoderCounts(c, position_rad);
+  d->velocity_counts_s = RadPerSecToEncoderRate(c, velocity_rad_s);
+  d->effort_counts = SensorValueToEffortCounts(c, sensor_value);
 }
 
 void Emulator::SetImu(const std::array<double, 3>& gyro_rad_s,
@@ -328,35 +335,28 @@ void Emulator::SetImu(const std::array<double, 3>& gyro_rad_s,
 }
 
 double Emulator::torque_setpoint_Nm(int joint) const noexcept {
-  if (joint < 0 || joint >= kNumJoints) return 0.0;
-  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
-  if (index < 0) return 0.0;
-  const Device& d = devices_[static_cast<std::size_t>(index)];
-  return d.enabled ? 1e-3 * d.torque_mNm : 0.0;
+  const Device* d = JointDevice(joint);
+  return d != nullptr && d->enabled ? 1e-3 * d->torque_mNm : 0.0;
 }
 
 bool Emulator::outputs_enabled(int joint) const noexcept {
-  if (joint < 0 || joint >= kNumJoints) return false;
-  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
-  return index >= 0 && devices_[static_cast<std::size_t>(index)].enabled;
+  const Device* d = JointDevice(joint);
+  return d != nullptr && d->enabled;
 }
 
 NmtState Emulator::nmt_state(int joint) const noexcept {
-  if (joint < 0 || joint >= kNumJoints) return NmtState::kStopped;
-  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
-  return index >= 0 ? devices_[static_cast<std::size_t>(index)].nmt : NmtState::kStopped;
+  const Device* d = JointDevice(joint);
+  return d != nullptr ? d->nmt : NmtState::kStopped;
 }
 
 std::uint64_t Emulator::rpdos_received(int joint) const noexcept {
-  if (joint < 0 || joint >= kNumJoints) return 0;
-  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
-  return index >= 0 ? devices_[static_cast<std::size_t>(index)].rpdos : 0;
+  const Device* d = JointDevice(joint);
+  return d != nullptr ? d->rpdos : 0;
 }
 
 DeviceFaults& Emulator::joint_faults(int joint) noexcept {
-  if (joint < 0 || joint >= kNumJoints) return dummy_.faults;
-  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
-  return index >= 0 ? devices_[static_cast<std::size_t>(index)].faults : dummy_.faults;
+  Device* d = JointDevice(joint);
+  return d != nullptr ? d->faults : dummy_.faults;
 }
 
 DeviceFaults& Emulator::imu_faults() noexcept {
@@ -364,16 +364,14 @@ DeviceFaults& Emulator::imu_faults() noexcept {
 }
 
 void Emulator::SendJointEmcy(int joint, std::uint16_t code) noexcept {
-  if (joint < 0 || joint >= kNumJoints) return;
-  const int index = joint_to_device_[static_cast<std::size_t>(joint)];
-  if (index < 0) return;
-  Device& d = devices_[static_cast<std::size_t>(index)];
-  d.emcy_pending = true;
-  d.pending_emcy = code;
+  Device* d = JointDevice(joint);
+  if (d == nullptr) return;
+  d->emcy_pending = true;
+  d->pending_emcy = code;
   if (code != emcy::kNoError) {
-    d.fault = true;
-    d.enabled = false;
-    d.torque_mNm = 0;
+    d->fault = true;
+    d->enabled = false;
+    d->torque_mNm = 0;
   }
 }
 

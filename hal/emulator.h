@@ -143,6 +143,9 @@ class Emulator {
     EmulatorCounters counters;
   };
 
+  // joint's board, nullptr when `joint` is out of range or has none
+  Device* JointDevice(int joint) noexcept;
+  const Device* JointDevice(int joint) const noexcept;
   void HandleFrame(BusState& b, const CanFrame& f) noexcept;
   void OnSync(BusState& b, std::uint8_t counter) noexcept;
   void Answer(BusState& b, Device& d, std::uint8_t counter) noexcept;

@@ -15,6 +15,21 @@ HalStatus Worse(HalStatus a, HalStatus b) noexcept {
   return static_cast<std::uint8_t>(a) >= static_cast<std::uint8_t>(b) ? a : b;
 }
 
+// Decodes device d's TPDO with `decode` and gives its SYNC counter and status word; the first
+// one this cycle that answers the SYNC in flight (`sync_counter`) is kept in *in, for Publish.
+template <class Tpdo, class Decode>
+PdoStatus TakeTpdo(Decode decode, const CanFrame& f, const DeviceRuntime& d,
+                   std::uint8_t sync_counter, Tpdo* in, std::uint8_t* counter,
+                   std::uint16_t* status) noexcept {
+  Tpdo p;
+  const PdoStatus s = decode(f, d.node, &p);
+  if (s != PdoStatus::kOk) return s;
+  *counter = p.sync_counter;
+  *status = p.status;
+  if (p.sync_counter == sync_counter && d.rx_count == 0) *in = p;
+  return s;
+}
+
 }  // namespace
 
 const char* ToString(HalStatus s) noexcept {
@@ -24,17 +39,6 @@ const char* ToString(HalStatus s) noexcept {
     case HalStatus::kBadCommand: return "bad_command";
     case HalStatus::kTxFailed: return "tx_failed";
     case HalStatus::kBusOff: return "bus_off";
-  }
-  return "unknown";
-}
-
-const char* ToString(InputStatus s) noexcept {
-  switch (s) {
-    case InputStatus::kValid: return "valid";
-    case InputStatus::kMissing: return "missing";
-    case InputStatus::kDuplicate: return "duplicate";
-    case InputStatus::kDeviceFault: return "device_fault";
-    case InputStatus::kNotOperational: return "not_operational";
   }
   return "unknown";
 }
@@ -117,21 +121,10 @@ void Bus::HandleFrame(const CanFrame& f, StateMachineContext& ctx) noexcept {
     case FrameKind::kTpdo1: {
       std::uint8_t counter = 0;
       std::uint16_t status = 0;
-      if (d.kind == DeviceKind::kActuator) {
-        ActuatorTpdo p;
-        s = DecodeActuatorTpdo(f, d.node, &p);
-        if (s != PdoStatus::kOk) break;
-        counter = p.sync_counter;
-        status = p.status;
-        if (counter == sync_counter_ && d.rx_count == 0) d.actuator_in = p;
-      } else {
-        ImuTpdo p;
-        s = DecodeImuTpdo(f, d.node, &p);
-        if (s != PdoStatus::kOk) break;
-        counter = p.sync_counter;
-        status = p.status;
-        if (counter == sync_counter_ && d.rx_count == 0) d.imu_in = p;
-      }
+      s = d.kind == DeviceKind::kActuator
+              ? TakeTpdo(DecodeActuatorTpdo, f, d, sync_counter_, &d.actuator_in, &counter, &status)
+              : TakeTpdo(DecodeImuTpdo, f, d, sync_counter_, &d.imu_in, &counter, &status);
+      if (s != PdoStatus::kOk) break;
       if (counter != sync_counter_ || sync_counter_ == 0) {
         ++d.counters.late;  // answers an older SYNC: stale, never used
         ++counters_.late;

@@ -1,5 +1,5 @@
 // The hardware abstraction: one Bus context per CAN bus (no globals) and the Hal that owns the
-// process image of all of them (docs/hal.md).
+// process image of all of them (hal/process_image.h, docs/hal.md).
 //
 // One cycle, SYNC-driven (CANopen synchronous PDOs):
 //   Read(now):  drain RX -> decode heartbeats, EMCYs, TPDOs -> working-counter check (a TPDO must
@@ -18,7 +18,6 @@
 #include <array>
 #include <cstdint>
 #include <functional>
-#include <limits>
 #include <memory>
 #include <span>
 #include <string>
@@ -28,6 +27,7 @@
 #include "hal/config_error.h"
 #include "hal/device_state_machine.h"
 #include "hal/hal_config.h"
+#include "hal/process_image.h"
 #include "hal/protocol.h"
 
 namespace hyq::hal {
@@ -40,65 +40,6 @@ enum class [[nodiscard]] HalStatus : std::uint8_t {
   kBusOff,          // the channel reports bus-off
 };
 const char* ToString(HalStatus s) noexcept;
-
-/// Per-joint / IMU input quality in the process image.
-enum class InputStatus : std::uint8_t {
-  kValid,           // exactly one TPDO answering the last SYNC arrived this cycle
-  kMissing,         // expected but not received (values are the last valid ones, see age)
-  kDuplicate,       // more than one TPDO for the same SYNC (values not updated)
-  kDeviceFault,     // received, but the status word reports a fault (values updated)
-  kNotOperational,  // the device is not in SAFE-OP or OP
-};
-const char* ToString(InputStatus s) noexcept;
-
-/// Values are NaN until the first valid frame, so that a consumer ignoring `status` cannot mistake
-/// "never received" for a reading.
-struct JointInput {
-  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  double position_rad = kNaN;
-  double velocity_rad_s = kNaN;
-  double torque_Nm = kNaN;         // from the load cell through r(q) (HFE/KFE) or torque sensor
-  double sensor_value = kNaN;      // cylinder force in N (HFE/KFE) or HAA torque in N·m
-  std::int32_t position_counts = 0;
-  std::int32_t velocity_counts_s = 0;
-  std::int32_t effort_counts = 0;
-  std::uint16_t status_word = 0;
-  InputStatus status = InputStatus::kNotOperational;
-  std::uint32_t age_cycles = 0;    // cycles since the values were last fresh (0 = this cycle)
-  DeviceState device_state = DeviceState::kInit;
-  bool valid() const noexcept { return status == InputStatus::kValid; }
-};
-
-struct ImuInput {
-  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  std::array<double, 3> gyro_rad_s{kNaN, kNaN, kNaN};   // IMU frame
-  std::array<double, 3> accel_m_s2{kNaN, kNaN, kNaN};   // specific force, IMU frame
-  std::uint16_t status_word = 0;
-  InputStatus status = InputStatus::kNotOperational;
-  std::uint32_t age_cycles = 0;
-  DeviceState device_state = DeviceState::kInit;
-  bool valid() const noexcept { return status == InputStatus::kValid; }
-};
-
-struct JointCommand {
-  double torque_Nm = 0.0;  // applied only while the joint's device is in OP; clamped to the limit
-};
-
-struct WorkingCounter {
-  std::uint32_t expected = 0;
-  std::uint32_t received = 0;
-  bool ok() const noexcept { return expected == received; }
-};
-
-/// The process image: inputs of the last Read, outputs for the next Write. Joint order lf, rf,
-/// lh, rh x haa, hfe, kfe.
-struct ProcessImage {
-  std::uint64_t cycle = 0;  // Read calls so far
-  std::array<JointInput, kNumJoints> joints{};
-  ImuInput imu;
-  std::array<JointCommand, kNumJoints> commands{};
-  WorkingCounter wkc;       // all buses, last Read
-};
 
 struct BusCounters {
   std::uint64_t cycles = 0;

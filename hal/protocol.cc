@@ -45,6 +45,13 @@ PdoStatus CheckFrame(const CanFrame& f, std::uint32_t id, std::uint8_t len) noex
 
 bool IsNodeId(std::uint8_t n) noexcept { return n >= kMinNodeId && n <= kMaxNodeId; }
 
+// CheckFrame for the frames a node sends or receives at cob_base + node
+PdoStatus CheckNodeFrame(const CanFrame& f, std::uint32_t cob_base, std::uint8_t node,
+                         std::uint8_t len) noexcept {
+  if (!IsNodeId(node)) return PdoStatus::kWrongId;
+  return CheckFrame(f, cob_base + node, len);
+}
+
 }  // namespace
 
 bool IsValidFdLength(std::size_t len) noexcept {
@@ -186,10 +193,8 @@ PdoStatus DecodeSync(const CanFrame& f, std::uint8_t* counter) noexcept {
 }
 
 PdoStatus DecodeHeartbeat(const CanFrame& f, std::uint8_t node, NmtState* state) noexcept {
-  if (!IsNodeId(node)) return PdoStatus::kWrongId;
-  if (const PdoStatus s = CheckFrame(f, cob::kHeartbeat + node, kHeartbeatLen);
-      s != PdoStatus::kOk)
-    return s;
+  const PdoStatus s = CheckNodeFrame(f, cob::kHeartbeat, node, kHeartbeatLen);
+  if (s != PdoStatus::kOk) return s;
   const std::uint8_t v = f.data[0] & 0x7F;  // bit 7 is the CiA 301 toggle bit (node guarding)
   if (v != 0x00 && v != 0x04 && v != 0x05 && v != 0x7F) return PdoStatus::kBadValue;
   *state = static_cast<NmtState>(v);
@@ -197,9 +202,8 @@ PdoStatus DecodeHeartbeat(const CanFrame& f, std::uint8_t node, NmtState* state)
 }
 
 PdoStatus DecodeEmcy(const CanFrame& f, std::uint8_t node, EmcyMessage* m) noexcept {
-  if (!IsNodeId(node)) return PdoStatus::kWrongId;
-  if (const PdoStatus s = CheckFrame(f, cob::kEmcy + node, kEmcyLen); s != PdoStatus::kOk)
-    return s;
+  const PdoStatus s = CheckNodeFrame(f, cob::kEmcy, node, kEmcyLen);
+  if (s != PdoStatus::kOk) return s;
   m->code = GetU16(&f.data[0]);
   m->error_register = f.data[2];
   std::memcpy(m->vendor.data(), &f.data[3], m->vendor.size());
@@ -207,10 +211,8 @@ PdoStatus DecodeEmcy(const CanFrame& f, std::uint8_t node, EmcyMessage* m) noexc
 }
 
 PdoStatus DecodeActuatorTpdo(const CanFrame& f, std::uint8_t node, ActuatorTpdo* p) noexcept {
-  if (!IsNodeId(node)) return PdoStatus::kWrongId;
-  if (const PdoStatus s = CheckFrame(f, cob::kTpdo1 + node, kActuatorTpdoLen);
-      s != PdoStatus::kOk)
-    return s;
+  const PdoStatus s = CheckNodeFrame(f, cob::kTpdo1, node, kActuatorTpdoLen);
+  if (s != PdoStatus::kOk) return s;
   if (f.data[14] < 1 || f.data[14] > kSyncCounterMax) return PdoStatus::kBadValue;
   p->position_counts = GetI32(&f.data[0]);
   p->velocity_counts_s = GetI32(&f.data[4]);
@@ -222,10 +224,8 @@ PdoStatus DecodeActuatorTpdo(const CanFrame& f, std::uint8_t node, ActuatorTpdo*
 }
 
 PdoStatus DecodeActuatorRpdo(const CanFrame& f, std::uint8_t node, ActuatorRpdo* p) noexcept {
-  if (!IsNodeId(node)) return PdoStatus::kWrongId;
-  if (const PdoStatus s = CheckFrame(f, cob::kRpdo1 + node, kActuatorRpdoLen);
-      s != PdoStatus::kOk)
-    return s;
+  const PdoStatus s = CheckNodeFrame(f, cob::kRpdo1, node, kActuatorRpdoLen);
+  if (s != PdoStatus::kOk) return s;
   if (f.data[6] > kSyncCounterMax) return PdoStatus::kBadValue;
   p->torque_mNm = GetI32(&f.data[0]);
   p->control = GetU16(&f.data[4]);
@@ -235,9 +235,8 @@ PdoStatus DecodeActuatorRpdo(const CanFrame& f, std::uint8_t node, ActuatorRpdo*
 }
 
 PdoStatus DecodeImuTpdo(const CanFrame& f, std::uint8_t node, ImuTpdo* p) noexcept {
-  if (!IsNodeId(node)) return PdoStatus::kWrongId;
-  if (const PdoStatus s = CheckFrame(f, cob::kTpdo1 + node, kImuTpdoLen); s != PdoStatus::kOk)
-    return s;
+  const PdoStatus s = CheckNodeFrame(f, cob::kTpdo1, node, kImuTpdoLen);
+  if (s != PdoStatus::kOk) return s;
   if (f.data[26] < 1 || f.data[26] > kSyncCounterMax) return PdoStatus::kBadValue;
   for (std::size_t i = 0; i < 3; ++i) {
     p->gyro_urad_s[i] = GetI32(&f.data[4 * i]);

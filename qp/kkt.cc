@@ -5,24 +5,11 @@
 #include <cmath>
 
 #include "qp/problem.h"
+#include "qp/workspace.h"
 
 namespace hyq::qp {
-namespace {
 
-double Dot(const double* a, const double* b, int n) {
-  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
-  int i = 0;
-  for (; i + 4 <= n; i += 4) {
-    s0 += a[i] * b[i];
-    s1 += a[i + 1] * b[i + 1];
-    s2 += a[i + 2] * b[i + 2];
-    s3 += a[i + 3] * b[i + 3];
-  }
-  for (; i < n; ++i) s0 += a[i] * b[i];
-  return (s0 + s1) + (s2 + s3);
-}
-
-}  // namespace
+using internal::Dot;
 
 void Problem::Resize(int n, int m) noexcept {
   n = std::clamp(n, 0, kMaxVariables);

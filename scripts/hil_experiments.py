@@ -231,13 +231,25 @@ def fell_txt(fell, at):
     return f"**falls at {at:.2f} s**" if fell else "no"
 
 
+def table(L, heading, columns):
+    """Appends a markdown table's heading, header row and separator row to L."""
+    L.append(heading)
+    L.append("| " + " | ".join(columns) + " |")
+    L.append("|" + "---|" * len(columns))
+
+
+def error_cell(mean_error, fell, fell_at, slip):
+    """'mean error (falls at s); mean slip', as the one-factor table shows a run."""
+    return f"{mean_error:.4f}" + (f" (falls {fell_at:.2f})" if fell else "") + f"; {slip:.3f}"
+
+
 def write_tables(R, out, variants):
     L = []
     name = {"trot": "trot (6 s)", "eight": "Figure-Eight (5 s)"}
-    L.append("### Main table: mu = 0.1, in-process vs through the loop (HIL 'full')\n")
-    L.append("| scenario | controller | in-process mean / max error (rad) | in-process slip (m/s) | in-process fell | "
-             "HIL mean / max error (rad) | HIL slip (m/s) | HIL fell while active | HIL QP mean / max (µs) | HIL fallbacks |")
-    L.append("|---|---|---|---|---|---|---|---|---|---|")
+    table(L, "### Main table: mu = 0.1, in-process vs through the loop (HIL 'full')\n",
+          ["scenario", "controller", "in-process mean / max error (rad)", "in-process slip (m/s)",
+           "in-process fell", "HIL mean / max error (rad)", "HIL slip (m/s)", "HIL fell while active",
+           "HIL QP mean / max (µs)", "HIL fallbacks"])
     for r in REFS:
         for c in CTRLS:
             i, h = R["inprocess"][f"{r}_{c}"], R["hil"][f"{r}_{c}_full"]
@@ -245,9 +257,8 @@ def write_tables(R, out, variants):
                      f"{fell_txt(i['fell'], i['fell_at_s'])} | {h['mean_error_rad']:.4f} / {h['max_error_rad']:.3f} | "
                      f"{h['mean_slip_m_s']:.3f} | {fell_txt(h['fell_while_active'], h['fell_at_active_s'] or 0)} | "
                      f"{h['qp_mean_us']:.1f} / {h['qp_max_us']:.0f} | {h['fallbacks']} |")
-    L.append("\n### Two-stage ID vs PID and vs no-slip ID (mean tracking error)\n")
-    L.append("| scenario | comparison | in-process | HIL full (seed 1) | HIL full (seed 2) |")
-    L.append("|---|---|---|---|---|")
+    table(L, "\n### Two-stage ID vs PID and vs no-slip ID (mean tracking error)\n",
+          ["scenario", "comparison", "in-process", "HIL full (seed 1)", "HIL full (seed 2)"])
     for r in REFS:
         for other in ["pid", "noslip"]:
             i = pct(R["inprocess"][f"{r}_two_stage"]["mean_error_rad"], R["inprocess"][f"{r}_{other}"]["mean_error_rad"])
@@ -259,21 +270,21 @@ def write_tables(R, out, variants):
                     cells.append("—")
             L.append(f"| {name[r]} | two-stage vs {other} | {i:+.1f} % | " + " | ".join(cells) + " |")
     if len(variants) > 1:
-        L.append("\n### One factor at a time (mean error rad; fell while active at s; mean slip m/s)\n")
-        L.append("| scenario | controller | in-process (none of the factors) | HIL lag off + noise off | HIL noise off | HIL lag off | HIL full | HIL full, seed 2 |")
-        L.append("|---|---|---|---|---|---|---|---|")
+        table(L, "\n### One factor at a time (mean error rad; fell while active at s; mean slip m/s)\n",
+              ["scenario", "controller", "in-process (none of the factors)", "HIL lag off + noise off",
+               "HIL noise off", "HIL lag off", "HIL full", "HIL full, seed 2"])
         for r in REFS:
             for c in CTRLS:
                 i = R["inprocess"][f"{r}_{c}"]
-                cells = [f"{i['mean_error_rad']:.4f}" + (f" (falls {i['fell_at_s']:.2f})" if i["fell"] else "") + f"; {i['mean_slip_m_s']:.3f}"]
+                cells = [error_cell(i["mean_error_rad"], i["fell"], i["fell_at_s"], i["mean_slip_m_s"])]
                 for v in ["no_lag_no_noise", "no_noise", "no_lag", "full", "full_seed2"]:
                     h = R["hil"][f"{r}_{c}_{v}"]
-                    cells.append(f"{h['mean_error_rad']:.4f}" + (f" (falls {h['fell_at_active_s']:.2f})" if h["fell_while_active"] else "")
-                                 + f"; {h['mean_slip_m_s']:.3f}")
+                    cells.append(error_cell(h["mean_error_rad"], h["fell_while_active"],
+                                            h["fell_at_active_s"], h["mean_slip_m_s"]))
                 L.append(f"| {name[r]} | {c} | " + " | ".join(cells) + " |")
-    L.append("\n### Servo-cycle controller time in the HIL 'full' runs (µs, wall clock of the lock-step daemon)\n")
-    L.append("| scenario | controller | control p50 | control p99.9 | control max | lock-step speed (sim s / wall s) |")
-    L.append("|---|---|---|---|---|---|")
+    table(L, "\n### Servo-cycle controller time in the HIL 'full' runs (µs, wall clock of the lock-step daemon)\n",
+          ["scenario", "controller", "control p50", "control p99.9", "control max",
+           "lock-step speed (sim s / wall s)"])
     for r in REFS:
         for c in CTRLS:
             h = R["hil"][f"{r}_{c}_full"]

@@ -184,11 +184,7 @@ TEST(Candump, WriterOutputIsReadBackAndAcceptedByLog2asc) {
   const std::vector<CanFrame> frames = SampleFrames();
   {
     CandumpWriter w(path.string(), "vcan0");
-    std::int64_t t = 1'700'000'000'000'000'000;
-    for (CanFrame f : frames) {
-      f.timestamp_ns = (t += 1'000'000);
-      EXPECT_TRUE(w.Write(f));
-    }
+    EXPECT_TRUE(testing::WriteLog(w, frames));
     CanFrame bad = Classic(0x900, {});
     EXPECT_FALSE(w.Write(bad));
     EXPECT_EQ(w.written(), frames.size());

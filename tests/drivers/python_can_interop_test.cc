@@ -22,6 +22,7 @@ using testing::Child;
 using testing::Classic;
 using testing::Error;
 using testing::Fd;
+using testing::ReceiveN;
 using testing::Remote;
 using testing::SameFrame;
 using testing::TestPort;
@@ -61,19 +62,6 @@ std::vector<CanFrame> TestFrames() {
           Fd(0x282, 64, 0x10, true, false),
           Fd(0x1F000282, 12, 0x20, false, true, true),
           Fd(0x382, 5, 0x30, false, false)};
-}
-
-std::vector<CanFrame> ReceiveN(hal::CanChannel& ch, std::size_t n, std::chrono::seconds timeout) {
-  std::vector<CanFrame> got;
-  std::array<CanFrame, 16> buf;
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (got.size() < n && std::chrono::steady_clock::now() < deadline) {
-    std::size_t k = 0;
-    EXPECT_EQ(ch.Receive(buf, &k), CanStatus::kOk);
-    got.insert(got.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(k));
-    if (k == 0) std::this_thread::sleep_for(std::chrono::milliseconds(2));
-  }
-  return got;
 }
 
 TEST(PythonCanInterop, EchoPeerBothWays) {
@@ -167,11 +155,7 @@ TEST(PythonCanInterop, PythonCanReadsOurCandumpLog) {
   const std::vector<CanFrame> frames = TestFrames();
   {
     CandumpWriter w(path.string(), "vcan0");
-    std::int64_t t = 1'700'000'000'000'000'000;
-    for (CanFrame f : frames) {
-      f.timestamp_ns = (t += 1'000'000);
-      ASSERT_TRUE(w.Write(f));
-    }
+    ASSERT_TRUE(testing::WriteLog(w, frames));
   }
   std::string out;
   const int rc = testing::RunCommand(

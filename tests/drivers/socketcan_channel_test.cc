@@ -27,8 +27,10 @@ using hal::BusState;
 using hal::CanFrame;
 using hal::CanStatus;
 using testing::Classic;
+using testing::Drain;
 using testing::Error;
 using testing::Fd;
+using testing::ReceiveN;
 using testing::Remote;
 using testing::SameFrame;
 
@@ -44,31 +46,6 @@ bool FdMode() {
                       "tests/drivers/run_vcan_tests.sh, which uses ../shared/tools/"          \
                       "run-in-vcan-vm";                                                       \
   } while (false)
-
-std::vector<CanFrame> ReceiveN(hal::CanChannel& ch, std::size_t n,
-                               std::chrono::milliseconds timeout = std::chrono::seconds(10),
-                               std::size_t chunk = 16) {
-  std::vector<CanFrame> got;
-  std::vector<CanFrame> buf(chunk);
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (got.size() < n && std::chrono::steady_clock::now() < deadline) {
-    std::size_t k = 0;
-    EXPECT_EQ(ch.Receive(buf, &k), CanStatus::kOk);
-    got.insert(got.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(k));
-    if (k == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return got;
-}
-
-std::size_t Drain(hal::CanChannel& ch) {
-  std::vector<CanFrame> buf(64);
-  std::size_t total = 0, k = 0;
-  do {
-    EXPECT_EQ(ch.Receive(buf, &k), CanStatus::kOk);
-    total += k;
-  } while (k > 0);
-  return total;
-}
 
 SocketCanOptions On(const std::string& iface) {
   SocketCanOptions o;
@@ -222,24 +199,7 @@ TEST(SocketCan, NoHeapInSendAndReceive) {
   std::vector<CanFrame> burst;
   for (std::uint32_t i = 0; i < 13; ++i)
     burst.push_back(FdMode() ? Fd(0x180 + i, 16, 1) : Classic(0x180 + i, {1, 2, 3, 4}));
-  std::array<CanFrame, 64> out;
-  std::size_t n = 0;
-  ASSERT_EQ(a.Send(burst, &n), CanStatus::kOk);
-  ASSERT_EQ(ReceiveN(b, burst.size()).size(), burst.size());
-  for (int cycle = 0; cycle < 20; ++cycle) {
-    std::size_t got = 0, tries = 0;
-    hyq::testing::NoHeapGuard guard;
-    CanStatus s = a.Send(burst, &n);
-    while (got < burst.size() && ++tries < 1'000'000) {
-      std::size_t k = 0;
-      s = b.Receive(out, &k);
-      got += k;
-    }
-    const std::size_t allocations = guard.allocations();
-    ASSERT_EQ(s, CanStatus::kOk);
-    ASSERT_EQ(got, burst.size());
-    ASSERT_EQ(allocations, 0u);
-  }
+  EXPECT_TRUE(testing::RoundTripsWithoutHeap(a, b, burst, 20));
 }
 
 TEST(SocketCan, CanUtilsCandumpRecordsUsAndCanplayerPlaysOurLog) {
@@ -274,11 +234,7 @@ TEST(SocketCan, CanUtilsCandumpRecordsUsAndCanplayerPlaysOurLog) {
   // canplayer plays our writer's log onto vcan3, where our channel receives it
   {
     CandumpWriter w(ours, "can0");
-    std::int64_t t = 1'700'000'000'000'000'000;
-    for (CanFrame f : frames) {
-      f.timestamp_ns = (t += 1'000'000);
-      ASSERT_TRUE(w.Write(f));
-    }
+    ASSERT_TRUE(testing::WriteLog(w, frames));
   }
   SocketCanChannel rx(On("vcan3"));
   std::string out;

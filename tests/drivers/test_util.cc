@@ -7,10 +7,13 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <array>
 #include <cstdlib>
 #include <cstring>
 #include <sstream>
 #include <thread>
+
+#include "tests/support/no_heap_guard.h"
 
 extern char** environ;
 
@@ -183,6 +186,73 @@ std::string Describe(const CanFrame& f) {
     same = std::memcmp(a.data.data(), b.data.data(), a.len) == 0;
   if (same) return ::testing::AssertionSuccess();
   return ::testing::AssertionFailure() << Describe(a) << " != " << Describe(b);
+}
+
+std::vector<CanFrame> ReceiveN(hal::CanChannel& ch, std::size_t n,
+                               std::chrono::milliseconds timeout, std::size_t chunk) {
+  std::vector<CanFrame> got;
+  std::vector<CanFrame> buf(chunk);
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  while (got.size() < n && std::chrono::steady_clock::now() < deadline) {
+    std::size_t k = 0;
+    EXPECT_EQ(ch.Receive(buf, &k), hal::CanStatus::kOk);
+    got.insert(got.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(k));
+    if (k == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  return got;
+}
+
+std::size_t Drain(hal::CanChannel& ch, std::chrono::milliseconds settle) {
+  std::this_thread::sleep_for(settle);
+  std::vector<CanFrame> buf(64);
+  std::size_t total = 0, k = 0;
+  do {
+    EXPECT_EQ(ch.Receive(buf, &k), hal::CanStatus::kOk);
+    total += k;
+  } while (k > 0);
+  return total;
+}
+
+::testing::AssertionResult RoundTripsWithoutHeap(hal::CanChannel& tx, hal::CanChannel& rx,
+                                                 const std::vector<CanFrame>& burst,
+                                                 int rounds) {
+  std::size_t n = 0;
+  const hal::CanStatus warm_up = tx.Send(burst, &n);
+  if (warm_up != hal::CanStatus::kOk)
+    return ::testing::AssertionFailure() << "warm-up Send: " << hal::ToString(warm_up);
+  if (const std::size_t got = ReceiveN(rx, burst.size()).size(); got != burst.size())
+    return ::testing::AssertionFailure()
+           << "warm-up: received " << got << " of " << burst.size() << " frames";
+  std::array<CanFrame, 64> out;
+  for (int round = 0; round < rounds; ++round) {
+    std::size_t got = 0, tries = 0, allocations = 0;
+    hal::CanStatus s;
+    {
+      hyq::testing::NoHeapGuard guard;
+      s = tx.Send(burst, &n);
+      while (got < burst.size() && ++tries < 1'000'000) {
+        std::size_t k = 0;
+        s = rx.Receive(out, &k);
+        got += k;
+      }
+      allocations = guard.allocations();
+    }
+    if (s != hal::CanStatus::kOk || got != burst.size() || allocations != 0)
+      return ::testing::AssertionFailure()
+             << "round " << round << ": last call " << hal::ToString(s) << ", received " << got
+             << " of " << burst.size() << " frames, " << allocations << " heap allocations";
+  }
+  return ::testing::AssertionSuccess();
+}
+
+bool WriteLog(CandumpWriter& w, const std::vector<CanFrame>& frames) {
+  std::int64_t t = 1'700'000'000'000'000'000;
+  bool all = true;
+  for (CanFrame f : frames) {
+    f.timestamp_ns = (t += 1'000'000);
+    all = w.Write(f) && all;
+  }
+  return all;
 }
 
 std::uint16_t TestPort(int k) {

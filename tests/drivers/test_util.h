@@ -1,5 +1,5 @@
-// Helpers for the drivers tests: child processes with a readable stdout, frame builders, and the
-// network-namespace check.
+// Helpers for the drivers tests: child processes with a readable stdout, frame builders, receiving
+// and draining channels, writing candump logs, and the network-namespace check.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -10,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "drivers/candump.h"
 #include "hal/can_channel.h"
 
 namespace hyq::drivers::testing {
@@ -65,6 +66,26 @@ hal::CanFrame Error(std::uint32_t error_class, std::initializer_list<std::uint8_
 /// Equal id, flags, len and payload (the timestamp is not compared).
 ::testing::AssertionResult SameFrame(const hal::CanFrame& a, const hal::CanFrame& b);
 std::string Describe(const hal::CanFrame& f);
+
+/// Receives from `ch`, `chunk` frames per call, until `n` frames arrived or `timeout` passed
+/// (every Receive is expected to return kOk).
+std::vector<hal::CanFrame> ReceiveN(hal::CanChannel& ch, std::size_t n,
+                                    std::chrono::milliseconds timeout = std::chrono::seconds(10),
+                                    std::size_t chunk = 16);
+/// After `settle`, receives until nothing is left; returns how many frames that was.
+std::size_t Drain(hal::CanChannel& ch,
+                  std::chrono::milliseconds settle = std::chrono::milliseconds(0));
+
+/// The no-heap proof of a channel pair: after a warm-up round, `rounds` times one Send of `burst`
+/// on `tx` and Receives on `rx` until all of it arrived, each round under a NoHeapGuard. Fails
+/// naming the round where a call did not return kOk, a frame was missing or the heap was used.
+::testing::AssertionResult RoundTripsWithoutHeap(hal::CanChannel& tx, hal::CanChannel& rx,
+                                                 const std::vector<hal::CanFrame>& burst,
+                                                 int rounds);
+
+/// Writes every frame to `w`, stamped 1 ms apart from 1'700'000'001'000'000'000 ns on; false when
+/// the writer refused one.
+bool WriteLog(CandumpWriter& w, const std::vector<hal::CanFrame>& frames);
 
 /// A port no other test in this namespace uses (tests run one process per namespace anyway).
 std::uint16_t TestPort(int k = 0);

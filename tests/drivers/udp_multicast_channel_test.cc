@@ -25,8 +25,10 @@ namespace {
 using hal::CanFrame;
 using hal::CanStatus;
 using testing::Classic;
+using testing::Drain;
 using testing::Error;
 using testing::Fd;
+using testing::ReceiveN;
 using testing::Remote;
 using testing::SameFrame;
 using testing::TestPort;
@@ -36,33 +38,6 @@ UdpMulticastOptions Opts(std::uint16_t port, bool fd = true) {
   o.port = port;
   o.fd = fd;
   return o;
-}
-
-// Receives until `n` frames arrived or `timeout` passed.
-std::vector<CanFrame> ReceiveN(hal::CanChannel& ch, std::size_t n,
-                               std::chrono::milliseconds timeout = std::chrono::seconds(5),
-                               std::size_t chunk = 16) {
-  std::vector<CanFrame> got;
-  std::vector<CanFrame> buf(chunk);
-  const auto deadline = std::chrono::steady_clock::now() + timeout;
-  while (got.size() < n && std::chrono::steady_clock::now() < deadline) {
-    std::size_t k = 0;
-    EXPECT_EQ(ch.Receive(buf, &k), CanStatus::kOk);
-    got.insert(got.end(), buf.begin(), buf.begin() + static_cast<std::ptrdiff_t>(k));
-    if (k == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  }
-  return got;
-}
-
-std::size_t Drain(hal::CanChannel& ch, std::chrono::milliseconds settle) {
-  std::this_thread::sleep_for(settle);
-  std::vector<CanFrame> buf(64);
-  std::size_t total = 0, k = 0;
-  do {
-    EXPECT_EQ(ch.Receive(buf, &k), CanStatus::kOk);
-    total += k;
-  } while (k > 0);
-  return total;
 }
 
 std::vector<CanFrame> AllKinds() {
@@ -260,24 +235,7 @@ TEST(UdpMulticastChannel, NoHeapInSendAndReceive) {
   UdpMulticastChannel a(Opts(TestPort())), b(Opts(TestPort()));
   std::vector<CanFrame> burst;
   for (std::uint32_t i = 0; i < 13; ++i) burst.push_back(Fd(0x180 + i, 16, 1));
-  std::array<CanFrame, 64> out;
-  std::size_t n = 0;
-  ASSERT_EQ(a.Send(burst, &n), CanStatus::kOk);  // warm-up
-  ASSERT_EQ(ReceiveN(b, burst.size()).size(), burst.size());
-  for (int cycle = 0; cycle < 100; ++cycle) {
-    std::size_t got = 0, tries = 0;
-    hyq::testing::NoHeapGuard guard;
-    CanStatus s = a.Send(burst, &n);
-    while (got < burst.size() && ++tries < 1'000'000) {
-      std::size_t k = 0;
-      s = b.Receive(out, &k);
-      got += k;
-    }
-    const std::size_t allocations = guard.allocations();
-    ASSERT_EQ(s, CanStatus::kOk);
-    ASSERT_EQ(got, burst.size());
-    ASSERT_EQ(allocations, 0u) << "cycle " << cycle;
-  }
+  EXPECT_TRUE(testing::RoundTripsWithoutHeap(a, b, burst, 100));
 }
 
 TEST(UdpMulticastChannel, OpenErrorsNameTheProblem) {

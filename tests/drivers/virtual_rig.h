@@ -6,6 +6,7 @@
 #include <poll.h>
 #include <time.h>
 
+#include <algorithm>
 #include <atomic>
 #include <memory>
 #include <string>
@@ -14,6 +15,7 @@
 
 #include "config/hal_config_loader.h"
 #include "drivers/channel_factory.h"
+#include "hal/clock.h"
 #include "hal/emulator.h"
 #include "hal/hal.h"
 #include "hal/lockstep_channel.h"
@@ -21,10 +23,23 @@
 
 namespace hyq::testing {
 
-inline std::int64_t MonotonicNs() {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
+/// Pumps the master channels until together they hold `expected` TPDOs for the last SYNC (true),
+/// or until `timeout_ns` of wall time has passed (false). Between rounds it polls `fds`: with
+/// `spin`, without sleeping (the lowest latency, for the round-trip benchmark), else for up to
+/// the time left.
+inline bool WaitForTpdos(std::vector<std::unique_ptr<hal::LockstepChannel>>& master,
+                         std::vector<pollfd>& fds, int expected, std::int64_t timeout_ns,
+                         bool spin) {
+  const std::int64_t end = MonotonicNs() + timeout_ns;
+  for (;;) {
+    int got = 0;
+    for (auto& m : master) got += m->Pump();
+    if (got >= expected) return true;
+    const std::int64_t left = end - MonotonicNs();
+    if (left <= 0) return false;
+    const int poll_ms = spin ? 0 : static_cast<int>(std::max<std::int64_t>(1, left / 1'000'000));
+    (void)poll(fds.data(), fds.size(), poll_ms);
+  }
 }
 
 struct VirtualRig {
@@ -72,14 +87,7 @@ struct VirtualRig {
   /// Waits (poll) until every master channel holds its bus's TPDOs for the last SYNC, at most
   /// timeout_ns; returns whether they all arrived.
   bool WaitForInputs(int expected, std::int64_t timeout_ns) {
-    const std::int64_t end = MonotonicNs() + timeout_ns;
-    for (;;) {
-      int got = 0;
-      for (auto& m : master) got += m->Pump();
-      if (got >= expected) return true;
-      if (MonotonicNs() >= end) return false;
-      (void)poll(master_fds.data(), master_fds.size(), 0);
-    }
+    return WaitForTpdos(master, master_fds, expected, timeout_ns, /*spin=*/true);
   }
 
   hal::HalConfig cfg;

@@ -10,13 +10,10 @@
 #include <cstddef>
 #include <cstdint>
 #include <cstring>
-#include <memory>
-#include <vector>
 
-#include "hal/emulator.h"
 #include "hal/hal.h"
-#include "hal/loopback_bus.h"
 #include "hal/protocol.h"
+#include "tests/hal/hal_fixture.h"
 
 namespace {
 
@@ -51,30 +48,16 @@ void CheckDecoders(const CanFrame& f) {
   if (DecodeSync(f, &counter) == PdoStatus::kOk) Require(counter >= 1 && counter <= kSyncCounterMax);
 }
 
-struct Rig {
-  Rig() : config(DefaultHalConfig()) {
-    for (const BusConfig& b : config.buses) {
-      wires.push_back(std::make_unique<LoopbackBus>(b.name, 3, 64, true));
-      hal_side.push_back(&wires.back()->endpoint(0));
-      device_side.push_back(&wires.back()->endpoint(1));
-    }
-    hal = std::make_unique<Hal>(config, hal_side);
-    emu = std::make_unique<Emulator>(config, device_side, 7);
-    hal->RequestState(DeviceState::kOp, now);
-  }
+// the HAL rig with a third endpoint per bus, where the fuzzer's frames come from
+struct Rig : hyq::hal::testing::HalRig {
+  Rig() : HalRig(DefaultHalConfig(), 7, 3, 64) { hal->RequestState(DeviceState::kOp, now_ns); }
   void Cycle() {
-    (void)hal->Read(now);
+    (void)hal->Read(now_ns);
     for (auto& c : hal->image().commands) c.torque_Nm = 1.0;
-    (void)hal->Write(now);
-    emu->Poll(now);
-    now += 1'000'000;
+    (void)hal->Write(now_ns);
+    emu->Poll(now_ns);
+    now_ns += 1'000'000;
   }
-  HalConfig config;
-  std::vector<std::unique_ptr<LoopbackBus>> wires;
-  std::vector<CanChannel*> hal_side, device_side;
-  std::unique_ptr<Hal> hal;
-  std::unique_ptr<Emulator> emu;
-  std::int64_t now = 1'000'000'000;
 };
 
 constexpr std::uint8_t kLengths[] = {0, 1, 2, 3, 4, 5, 6, 7, 8, 12, 16, 20, 24, 32, 48, 64};

@@ -17,9 +17,13 @@ namespace hyq::hal::testing {
 inline constexpr std::int64_t kPeriodNs = 1'000'000;
 
 struct HalRig {
-  explicit HalRig(HalConfig cfg = DefaultHalConfig(), std::uint64_t seed = 1) : config(cfg) {
+  /// Each bus is a LoopbackBus of `endpoints` (0: the HAL, 1: the devices, more for tests that
+  /// put frames of their own on the wire), each with a receive queue of `queue_depth` frames.
+  explicit HalRig(HalConfig cfg = DefaultHalConfig(), std::uint64_t seed = 1,
+                  std::size_t endpoints = 2, std::size_t queue_depth = 256)
+      : config(cfg) {
     for (const BusConfig& b : config.buses) {
-      wires.push_back(std::make_unique<LoopbackBus>(b.name, 2, 256, true));
+      wires.push_back(std::make_unique<LoopbackBus>(b.name, endpoints, queue_depth, true));
       hal_side.push_back(&wires.back()->endpoint(0));
       device_side.push_back(&wires.back()->endpoint(1));
     }

@@ -5,7 +5,6 @@
 
 #include <poll.h>
 
-#include <algorithm>
 #include <cmath>
 #include <functional>
 
@@ -16,6 +15,7 @@
 #include "config/hal_config_loader.h"
 #include "drivers/channel_factory.h"
 #include "dynamics/urdf_loader.h"
+#include "hal/clock.h"
 #include "hal/hal.h"
 #include "hal/loopback_bus.h"
 #include "tests/drivers/virtual_rig.h"
@@ -118,15 +118,7 @@ struct UdpMaster {
   }
   /// Waits for `expected` TPDOs (at most timeout_ns of wall time).
   bool WaitForInputs(int expected, std::int64_t timeout_ns) {
-    const std::int64_t end = MonotonicNs() + timeout_ns;
-    for (;;) {
-      int got = 0;
-      for (auto& c : master) got += c->Pump();
-      if (got >= expected) return true;
-      const std::int64_t left = end - MonotonicNs();
-      if (left <= 0) return false;
-      (void)poll(fds.data(), fds.size(), static_cast<int>(std::max<std::int64_t>(1, left / 1'000'000)));
-    }
+    return WaitForTpdos(master, fds, expected, timeout_ns, /*spin=*/false);
   }
   hal::HalStatus Cycle(const std::function<void(hal::ProcessImage&)>& controller = {}) {
     const hal::HalStatus r = hal->Read(now());

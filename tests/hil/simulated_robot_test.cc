@@ -12,6 +12,7 @@
 #include "hal/calibration.h"
 #include "tests/hil/hil_rig.h"
 #include "tests/support/no_heap_guard.h"
+#include "tools/sim/fault_spec.h"
 
 namespace hyq::testing {
 namespace {

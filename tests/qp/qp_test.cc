@@ -49,6 +49,14 @@ void ExpectPlanted(const Planted& t, const Solution& s, double tol, const std::s
     EXPECT_EQ(s.active_constraints[k], t.active_constraints[k]) << what << " c" << k;
 }
 
+// Solves t's problem with the default budget and checks the planted solution; returns it.
+Solution SolvePlanted(Solver& solver, const Planted& t, double tol, const std::string& what) {
+  Solution s;
+  (void)solver.Solve(t.problem, Budget{}, &s);
+  ExpectPlanted(t, s, tol, what);
+  return s;
+}
+
 struct PlantedCase {
   PlantedOptions o;
   double x_tol;
@@ -73,11 +81,9 @@ TEST(QpPlanted, WellConditionedToIllConditioned) {
   for (const PlantedCase& c : cases) {
     for (int rep = 0; rep < 20; ++rep) {
       const Planted t = MakePlanted(c.o, &rng);
-      Solution s;
-      (void)solver.Solve(t.problem, Budget{}, &s);
-      ExpectPlanted(t, s, c.x_tol,
-                    "n=" + std::to_string(c.o.n) + " cond=" + std::to_string(c.o.condition) +
-                        " rep=" + std::to_string(rep));
+      SolvePlanted(solver, t, c.x_tol,
+                   "n=" + std::to_string(c.o.n) + " cond=" + std::to_string(c.o.condition) +
+                       " rep=" + std::to_string(rep));
     }
   }
 }
@@ -97,11 +103,9 @@ TEST(QpPlanted, RankDeficientHessian) {
     Solver solver(settings);
     for (int rep = 0; rep < 20; ++rep) {
       const Planted t = MakePlanted(c.o, &rng);
-      Solution s;
-      (void)solver.Solve(t.problem, Budget{}, &s);
-      ExpectPlanted(t, s, c.x_tol,
-                    "rank=" + std::to_string(c.o.rank) + " n=" + std::to_string(c.o.n) +
-                        " rep=" + std::to_string(rep));
+      const Solution s = SolvePlanted(solver, t, c.x_tol,
+                                      "rank=" + std::to_string(c.o.rank) + " n=" +
+                                          std::to_string(c.o.n) + " rep=" + std::to_string(rep));
       EXPECT_GT(s.regularisation, 0.0);
     }
   }
@@ -114,9 +118,7 @@ TEST(QpPlanted, LinearProgramAtAVertex) {
     PlantedOptions o{.n = 12, .m = 16, .rank = 0, .active_bounds = 5, .active_constraints = 7};
     const Planted t = MakePlanted(o, &rng);
     ASSERT_EQ(t.problem.H.cwiseAbs().maxCoeff(), 0.0);
-    Solution s;
-    (void)solver.Solve(t.problem, Budget{}, &s);
-    ExpectPlanted(t, s, 1e-9, "LP rep " + std::to_string(rep));
+    SolvePlanted(solver, t, 1e-9, "LP rep " + std::to_string(rep));
   }
 }
 
@@ -125,9 +127,7 @@ TEST(QpDegenerate, NothingActive) {
   Solver solver;
   const Planted t = MakePlanted({.n = 15, .m = 20, .condition = 1e3, .active_bounds = 0,
                                  .active_constraints = 0}, &rng);
-  Solution s;
-  (void)solver.Solve(t.problem, Budget{}, &s);
-  ExpectPlanted(t, s, 1e-11, "nothing active");
+  const Solution s = SolvePlanted(solver, t, 1e-11, "nothing active");
   EXPECT_EQ(s.iterations, 1);  // one outer iteration, no active-set change
 }
 
@@ -137,9 +137,7 @@ TEST(QpDegenerate, AllBoundsActive) {
   for (int rank : {20, 5, 0}) {
     const Planted t = MakePlanted({.n = 20, .m = 10, .condition = 1e2, .rank = rank,
                                    .active_bounds = 20, .active_constraints = 0}, &rng);
-    Solution s;
-    (void)solver.Solve(t.problem, Budget{}, &s);
-    ExpectPlanted(t, s, 1e-10, "all bounds, rank " + std::to_string(rank));
+    SolvePlanted(solver, t, 1e-10, "all bounds, rank " + std::to_string(rank));
   }
 }
 

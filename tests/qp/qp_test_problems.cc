@@ -60,41 +60,36 @@ Planted MakePlanted(const PlantedOptions& o, std::mt19937_64* rng) {
   auto inactive_side = [&](double value, double dir) {
     return Uniform(0, 1, rng) < o.infinite_fraction ? dir * kInf : value + dir * Uniform(0.1, 2, rng);
   };
+  // one row lo ≤ v ≤ hi: active (an equality, or a random side whose multiplier y has its sign)
+  // or inactive on both sides
+  auto plant_row = [&](double v, bool active, bool equality, double* lo, double* hi,
+                       double* y) {
+    if (!active) {
+      *lo = inactive_side(v, -1);
+      *hi = inactive_side(v, 1);
+      return Active::kInactive;
+    }
+    const bool upper = Uniform(0, 1, rng) < 0.5;
+    const double multiplier = Uniform(0.5, 2, rng);
+    *y = upper ? multiplier : -multiplier;
+    if (equality) {
+      *lo = *hi = v;
+      return Active::kEquality;
+    }
+    *hi = upper ? v : inactive_side(v, 1);
+    *lo = upper ? inactive_side(v, -1) : v;
+    return upper ? Active::kUpper : Active::kLower;
+  };
   for (int r = 0; r < n; ++r) {
     const int i = bi[r];
-    const double xi = t.x(i);
-    if (r < o.active_bounds) {
-      const bool upper = Uniform(0, 1, rng) < 0.5;
-      const double y = Uniform(0.5, 2, rng);
-      t.y_bounds(i) = upper ? y : -y;
-      t.active_bounds[i] = upper ? Active::kUpper : Active::kLower;
-      p.ub(i) = upper ? xi : inactive_side(xi, 1);
-      p.lb(i) = upper ? inactive_side(xi, -1) : xi;
-    } else {
-      p.lb(i) = inactive_side(xi, -1);
-      p.ub(i) = inactive_side(xi, 1);
-    }
+    t.active_bounds[i] = plant_row(t.x(i), r < o.active_bounds, /*equality=*/false, &p.lb(i),
+                                   &p.ub(i), &t.y_bounds(i));
   }
   const Eigen::VectorXd ax = p.A * t.x;
   for (int r = 0; r < m; ++r) {
     const int k = ci[r];
-    const double v = ax(k);
-    if (r < o.active_constraints) {
-      const bool upper = Uniform(0, 1, rng) < 0.5;
-      const double y = Uniform(0.5, 2, rng);
-      t.y_constraints(k) = upper ? y : -y;
-      if (r < o.equalities) {
-        p.lbA(k) = p.ubA(k) = v;
-        t.active_constraints[k] = Active::kEquality;
-      } else {
-        t.active_constraints[k] = upper ? Active::kUpper : Active::kLower;
-        p.ubA(k) = upper ? v : inactive_side(v, 1);
-        p.lbA(k) = upper ? inactive_side(v, -1) : v;
-      }
-    } else {
-      p.lbA(k) = inactive_side(v, -1);
-      p.ubA(k) = inactive_side(v, 1);
-    }
+    t.active_constraints[k] = plant_row(ax(k), r < o.active_constraints, r < o.equalities,
+                                        &p.lbA(k), &p.ubA(k), &t.y_constraints(k));
   }
   p.g = -(p.H * t.x) - t.y_bounds;
   if (m > 0) p.g -= p.A.transpose() * t.y_constraints;

@@ -23,11 +23,14 @@
 
 #include "config/hal_config_loader.h"
 #include "drivers/channel_factory.h"
+#include "hal/clock.h"
 #include "hal/emulator.h"
 #include "hal/hal.h"
 #include "hal/loopback_bus.h"
 
 namespace {
+
+using hyq::MonotonicNs;
 
 struct Options {
   std::string config = HYQ_DEFAULT_HAL_CONFIG;
@@ -104,12 +107,6 @@ Options Parse(int argc, char** argv) {
   return o;
 }
 
-std::int64_t Now() {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return static_cast<std::int64_t>(t.tv_sec) * 1'000'000'000 + t.tv_nsec;
-}
-
 void SleepUntil(std::int64_t t_ns) {
   timespec t{};
   t.tv_sec = t_ns / 1'000'000'000;
@@ -158,14 +155,14 @@ int RunDevices(const Options& o, hyq::hal::HalConfig cfg) {
   }
   signal(SIGINT, OnSignal);
   signal(SIGTERM, OnSignal);
-  const std::int64_t start = Now();
+  const std::int64_t start = MonotonicNs();
   const auto end = o.seconds > 0 ? start + static_cast<std::int64_t>(o.seconds * 1e9)
                                  : std::numeric_limits<std::int64_t>::max();
   std::fflush(stdout);
-  while (!g_stop && Now() < end) {
+  while (!g_stop && MonotonicNs() < end) {
     // wake on any received frame, and at least every 1 ms for heartbeats and delayed frames
     if (poll(fds.data(), fds.size(), 1) < 0 && errno != EINTR) break;
-    emu.Poll(Now());
+    emu.Poll(MonotonicNs());
   }
   PrintEmulatorCounters(emu, cfg);
   return 0;
@@ -183,7 +180,7 @@ int RunLoopback(const Options& o, const hyq::hal::HalConfig& cfg) {
   Hal hal(cfg, master);
   Emulator emu(cfg, devices);
   const auto period = static_cast<std::int64_t>(cfg.timing.cycle_period_s * 1e9);
-  std::int64_t now = Now();
+  std::int64_t now = MonotonicNs();
   emu.Poll(now);
   RunBringUp(hal, DeviceState::kOp, now, [&] {
     emu.Poll(now);

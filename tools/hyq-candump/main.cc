@@ -13,7 +13,6 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <ctime>
 #include <exception>
 #include <string>
 #include <thread>
@@ -23,18 +22,15 @@
 #include "drivers/candump.h"
 #include "drivers/channel_error.h"
 #include "drivers/channel_factory.h"
+#include "hal/clock.h"
 
 namespace {
+
+using hyq::MonotonicNs;
 
 volatile std::sig_atomic_t g_stop = 0;
 
 void OnSignal(int) { g_stop = 1; }
-
-std::int64_t MonotonicNs() {
-  timespec ts{};
-  clock_gettime(CLOCK_MONOTONIC, &ts);
-  return std::int64_t{ts.tv_sec} * 1'000'000'000 + ts.tv_nsec;
-}
 
 void SleepUs(long us) { std::this_thread::sleep_for(std::chrono::microseconds(us)); }
 

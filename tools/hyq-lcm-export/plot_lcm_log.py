@@ -46,10 +46,24 @@ def time_s(cols):
     return [(x - t[0]) * 1e-6 for x in t] if t else t
 
 
-def joint_grid(title):
+def joint_figure(title, plot_joint):
+    """A 4 x 3 grid, one panel per joint: plot_joint(ax, joint) draws it; legend on the first."""
     fig, axes = plt.subplots(4, 3, figsize=(12, 10), sharex=True)
     fig.suptitle(title)
-    return fig, axes.flat
+    for ax, j in zip(axes.flat, JOINTS):
+        plot_joint(ax, j)
+        ax.set_title(j, fontsize=9)
+    fig.axes[0].legend(fontsize=8)
+    for ax in fig.axes[-3:]:
+        ax.set_xlabel("time (s)")
+    return fig
+
+
+def save(fig, out, name, made):
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, name), dpi=80)
+    plt.close(fig)
+    made.append(name)
 
 
 def main():
@@ -63,38 +77,28 @@ def main():
     js = read(os.path.join(out, prefix + "JOINT_STATE.csv"))
     if js and js["utime"]:
         t = time_s(js)
-        fig, axes = joint_grid("Joint tracking: q (measured) and q_ref (rad)")
-        for ax, j in zip(axes, JOINTS):
+
+        def tracking(ax, j):
             ax.plot(t, num(js, "q_ref_rad." + j), "k--", lw=1, label="q_ref")
             ax.plot(t, num(js, "q_rad." + j), lw=1, label="q")
-            ax.set_title(j, fontsize=9)
-        fig.axes[0].legend(fontsize=8)
-        for ax in fig.axes[-3:]:
-            ax.set_xlabel("time (s)")
-        fig.tight_layout()
-        fig.savefig(os.path.join(out, "joint_tracking.png"), dpi=80)
-        plt.close(fig)
-        made.append("joint_tracking.png")
+
+        save(joint_figure("Joint tracking: q (measured) and q_ref (rad)", tracking), out,
+             "joint_tracking.png", made)
     else:
         print("plot: no %sJOINT_STATE.csv, no joint tracking figure" % prefix)
 
     jt = read(os.path.join(out, prefix + "JOINT_TORQUE.csv"))
     if jt and jt["utime"]:
         t = time_s(jt)
-        fig, axes = joint_grid("Joint torques (N.m): commanded and measured")
-        for ax, j in zip(axes, JOINTS):
+
+        def torques(ax, j):
             ax.plot(t, num(jt, "tau_command_Nm." + j), lw=1, label="commanded")
             if js and js["utime"]:
                 ax.plot(time_s(js), num(js, "tau_measured_Nm." + j), lw=1, alpha=0.7,
                         label="measured")
-            ax.set_title(j, fontsize=9)
-        fig.axes[0].legend(fontsize=8)
-        for ax in fig.axes[-3:]:
-            ax.set_xlabel("time (s)")
-        fig.tight_layout()
-        fig.savefig(os.path.join(out, "joint_torques.png"), dpi=80)
-        plt.close(fig)
-        made.append("joint_torques.png")
+
+        save(joint_figure("Joint torques (N.m): commanded and measured", torques), out,
+             "joint_torques.png", made)
     else:
         print("plot: no %sJOINT_TORQUE.csv, no torque figure" % prefix)
 
@@ -113,10 +117,7 @@ def main():
         b.set_title("wake-up latency: max %.1f µs" % max(wake))
         for ax in (a, b):
             ax.set_yscale("log")
-        fig.tight_layout()
-        fig.savefig(os.path.join(out, "timing_histogram.png"), dpi=80)
-        plt.close(fig)
-        made.append("timing_histogram.png")
+        save(fig, out, "timing_histogram.png", made)
     else:
         print("plot: no %sTIMING.csv, no timing histogram" % prefix)
 
@@ -135,10 +136,7 @@ def main():
         ax.set_xlabel("time since first event (s)")
         ax.set_title("Safety events (%d)" % len(t))
         ax.set_ylim(-0.5, len(MODES) - 0.5)
-        fig.tight_layout()
-        fig.savefig(os.path.join(out, "events_timeline.png"), dpi=80)
-        plt.close(fig)
-        made.append("events_timeline.png")
+        save(fig, out, "events_timeline.png", made)
     else:
         print("plot: no %sEVENT.csv, no events timeline" % prefix)
 

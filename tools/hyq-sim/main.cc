@@ -3,7 +3,6 @@
 // or SocketCAN, so that the unmodified servo daemon drives it like the real robot.
 // docs/simulation.md describes the modes, the models, the faults and this command line.
 #include <signal.h>
-#include <time.h>
 
 #include <atomic>
 #include <cmath>
@@ -20,6 +19,8 @@
 #include "config/hal_config_loader.h"
 #include "drivers/channel_factory.h"
 #include "dynamics/urdf_loader.h"
+#include "hal/clock.h"
+#include "tools/sim/fault_spec.h"
 #include "tools/sim/simulated_robot.h"
 
 namespace {
@@ -174,11 +175,7 @@ std::string DefaultSpec(const std::string& name, std::size_t index) {
   return "udp::" + std::to_string(43101 + index);
 }
 
-double WallS() {
-  timespec t{};
-  clock_gettime(CLOCK_MONOTONIC, &t);
-  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
-}
+double WallS() { return 1e-9 * static_cast<double>(hyq::MonotonicNs()); }
 
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }

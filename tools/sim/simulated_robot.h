@@ -18,8 +18,8 @@
 //    i.e. including the contact forces of the step) plus bias and Gaussian noise.
 //  - hold: until every actuator board has its outputs enabled, the robot is held at its standing
 //    posture (the state is reset every step, as on its stand); the IMU reads rest.
-//  - faults at simulated times (FaultSpec): silent board, corrupt / dropped TPDOs, broken sensor,
-//    bus-off, EMCY.
+//  - faults at simulated times (FaultSpec, tools/sim/fault_spec.h): silent board, corrupt /
+//    dropped TPDOs, broken sensor, bus-off, EMCY.
 //
 // Lock-step (deterministic): PollLockStep() drains the channels through the emulator at simulated
 // time; the emulator answers each SYNC with the current state; when the SYNC of cycle k has been
@@ -44,6 +44,7 @@
 #include "hal/can_channel.h"
 #include "hal/emulator.h"
 #include "hal/hal_config.h"
+#include "tools/sim/fault_spec.h"
 #include "tools/sim/plant.h"
 
 namespace hyq::sim {
@@ -62,29 +63,6 @@ struct SimulatedRobotConfig {
   std::uint64_t seed = 1;                 // sensor noise and the emulator's random drops
   double fall_height_m = 0.3;             // base below this height counts as fallen
 };
-
-/// One injected fault. Targets: a joint (index 0..11) for silent, corrupt, drop, nan, emcy; the
-/// IMU (joint = kImuTarget) for silent, drop, corrupt, nan; a bus (index) for bus-off.
-struct FaultSpec {
-  enum class Kind : std::uint8_t { kSilent, kCorrupt, kDrop, kNan, kBusOff, kEmcy };
-  static constexpr int kImuTarget = -2;
-  double t_s = 0.0;
-  Kind kind = Kind::kSilent;
-  int joint = -1;
-  int bus = -1;
-  std::uint32_t count = 1;        // corrupt / drop: frames
-  double duration_s = 0.0;        // silent / bus-off: 0 = for good
-  std::uint16_t emcy_code = 0x1000;
-  std::string text;               // as given (reports)
-};
-const char* ToString(FaultSpec::Kind k) noexcept;
-
-/// Parses "T:KIND:TARGET[:ARG]": KIND silent|corrupt|drop|nan|bus-off|emcy; TARGET a device name
-/// of the configuration ("lf_kfe", "imu"), a joint name ("lf_kfe_joint") or, for bus-off, a bus
-/// name ("rh"); ARG: frames for corrupt/drop (default 1), seconds for silent/bus-off (default:
-/// for good), the EMCY code for emcy (default 0x1000, hex with 0x). Throws std::invalid_argument
-/// naming what was expected and what was found.
-FaultSpec ParseFaultSpec(const std::string& text, const hal::HalConfig& config);
 
 struct SimulatedRobotCounters {
   std::uint64_t steps = 0;
