@@ -25,7 +25,7 @@
 
 #include "dynamics/leg_kinematics.h"
 #include "dynamics/model.h"
-#include "hal/hal.h"
+#include "hal/process_image.h"
 #include "servo/common/servo_types.h"
 
 namespace hyq::servo {
