@@ -26,12 +26,14 @@ hal::TimingConfig ReadTiming(const Reader& r, const YAML::Node& root) {
   const YAML::Node n = r.Map(root, "", "timing");
   r.Keys(n, "timing", {"cycle_period_s", "state_timeout_s", "bringup_timeout_s",
                        "heartbeat_period_s", "heartbeat_timeout_s", "max_missed_cycles",
-                       "min_valid_cycles_for_op"});
+                       "min_valid_cycles_for_op", "device_setpoint_timeout_s"});
   t.cycle_period_s = r.NumberOr(n, "timing", "cycle_period_s", t.cycle_period_s);
   t.state_timeout_s = r.NumberOr(n, "timing", "state_timeout_s", t.state_timeout_s);
   t.bringup_timeout_s = r.NumberOr(n, "timing", "bringup_timeout_s", t.bringup_timeout_s);
   t.heartbeat_period_s = r.NumberOr(n, "timing", "heartbeat_period_s", t.heartbeat_period_s);
   t.heartbeat_timeout_s = r.NumberOr(n, "timing", "heartbeat_timeout_s", t.heartbeat_timeout_s);
+  t.device_setpoint_timeout_s =
+      r.NumberOr(n, "timing", "device_setpoint_timeout_s", t.device_setpoint_timeout_s);
   if (n["max_missed_cycles"].IsDefined())
     t.max_missed_cycles = static_cast<int>(r.Integer(n, "timing", "max_missed_cycles", 0, 1000));
   if (n["min_valid_cycles_for_op"].IsDefined())

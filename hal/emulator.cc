@@ -24,6 +24,7 @@ Emulator::Emulator(const HalConfig& config, std::span<CanChannel* const> channel
                    std::uint64_t seed)
     : config_(config),
       heartbeat_period_ns_(static_cast<std::int64_t>(config.timing.heartbeat_period_s * 1e9)),
+      setpoint_timeout_ns_(static_cast<std::int64_t>(config.timing.device_setpoint_timeout_s * 1e9)),
       rng_(seed == 0 ? 0x9E3779B97F4A7C15ull : seed) {
   ValidateHalConfig(config_);
   if (channels.size() != config_.buses.size())
@@ -84,7 +85,10 @@ void Emulator::Flush(BusState& b) noexcept {
 
 void Emulator::Nmt(Device& d, NmtCommand cmd) noexcept {
   switch (cmd) {
-    case NmtCommand::kStart: d.nmt = NmtState::kOperational; break;
+    case NmtCommand::kStart:
+      if (d.nmt != NmtState::kOperational) d.op_entered_ns = now_ns_;
+      d.nmt = NmtState::kOperational;
+      break;
     case NmtCommand::kStop: d.nmt = NmtState::kStopped; d.enabled = false; break;
     case NmtCommand::kEnterPreOperational:
       d.nmt = NmtState::kPreOperational;
@@ -100,6 +104,28 @@ void Emulator::Nmt(Device& d, NmtCommand cmd) noexcept {
       break;
   }
   if (!d.enabled) d.torque_mNm = 0;
+}
+
+// The board's own timer (CANopen: the communication cycle period 0x1006 watched by the device,
+// error behaviour 0x1029 = pre-operational): it runs on the board's clock, not on SYNCs, so a
+// master that dies mid-cycle cannot leave a set-point applied.
+void Emulator::CheckSetpointTimer(BusState& b, Device& d, std::int64_t now_ns) noexcept {
+  if (setpoint_timeout_ns_ <= 0 || d.nmt != NmtState::kOperational) return;
+  const std::int64_t since_sync =
+      b.last_sync_ns >= 0 ? now_ns - std::max(b.last_sync_ns, d.op_entered_ns) : 0;
+  const bool applying = d.kind == DeviceKind::kActuator && d.enabled;
+  const std::int64_t since_setpoint =
+      applying && d.last_setpoint_ns >= 0 ? now_ns - d.last_setpoint_ns : 0;
+  if (since_sync <= setpoint_timeout_ns_ && since_setpoint <= setpoint_timeout_ns_) return;
+  d.enabled = false;
+  d.torque_mNm = 0;  // valve closed
+  d.watchdog = true;
+  d.nmt = NmtState::kPreOperational;
+  d.emcy_pending = true;
+  d.pending_emcy = emcy::kRpdoTimeout;
+  d.trip_ns = now_ns;
+  d.trip_delay_ns = std::max(since_sync, since_setpoint);
+  ++b.counters.setpoint_timeouts;
 }
 
 void Emulator::Answer(BusState& b, Device& d, std::uint8_t counter) noexcept {
@@ -167,6 +193,7 @@ void Emulator::Answer(BusState& b, Device& d, std::uint8_t counter) noexcept {
 
 void Emulator::OnSync(BusState& b, std::uint8_t counter) noexcept {
   ++b.counters.syncs;
+  b.last_sync_ns = now_ns_;
   // frames held back by an earlier SYNC go out first (they now answer an old counter)
   std::size_t keep = 0;
   for (std::size_t i = 0; i < b.delayed_size; ++i) {
@@ -235,6 +262,7 @@ void Emulator::HandleFrame(BusState& b, const CanFrame& f) noexcept {
       ++b.counters.rpdos;
       ++d.rpdos;
       d.rpdo_since_sync = true;
+      d.last_setpoint_ns = now_ns_;
       if ((p.control & control_bit::kFaultReset) != 0) {
         d.fault = false;
         d.watchdog = false;
@@ -269,6 +297,7 @@ void Emulator::Poll(std::int64_t now_ns) noexcept {
     for (int index : b.devices) {
       Device& d = devices_[static_cast<std::size_t>(index)];
       if (d.faults.silent) continue;
+      CheckSetpointTimer(b, d, now_ns);
       if (b.recovered) {
         d.emcy_pending = true;
         d.pending_emcy = emcy::kBusOffRecovered;
@@ -337,6 +366,16 @@ void Emulator::SetImu(const std::array<double, 3>& gyro_rad_s,
 double Emulator::torque_setpoint_Nm(int joint) const noexcept {
   const Device* d = JointDevice(joint);
   return d != nullptr && d->enabled ? 1e-3 * d->torque_mNm : 0.0;
+}
+
+std::int64_t Emulator::setpoint_trip_ns(int joint) const noexcept {
+  const Device* d = JointDevice(joint);
+  return d != nullptr ? d->trip_ns : -1;
+}
+
+std::int64_t Emulator::setpoint_trip_delay_ns(int joint) const noexcept {
+  const Device* d = JointDevice(joint);
+  return d != nullptr ? d->trip_delay_ns : 0;
 }
 
 bool Emulator::outputs_enabled(int joint) const noexcept {

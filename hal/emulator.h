@@ -7,7 +7,10 @@
 // PRE-OPERATIONAL; heartbeat every timing.heartbeat_period_s; NMT start -> OPERATIONAL: one TPDO1
 // per SYNC, echoing the SYNC counter; RPDO1 with control_bit::kEnable applies the torque set-point
 // (status_bit::kEnabled), without it the outputs are safe (0 N·m); an RPDO watchdog disables the
-// outputs after kRpdoWatchdogSyncs SYNCs without set-points (EMCY 0x8250).
+// outputs after kRpdoWatchdogSyncs SYNCs without set-points (EMCY 0x8250); and on the board's own
+// timer, whether SYNCs come or not, a board in OPERATIONAL without a SYNC, or with outputs on
+// without a set-point, for timing.device_setpoint_timeout_s sets 0 N·m, sends EMCY 0x8250 and
+// drops to PRE-OPERATIONAL (a dead master leaves no torque on the joints).
 //
 // Poll() never allocates (fixed queues sized at construction). Single-threaded.
 #pragma once
@@ -57,6 +60,7 @@ struct EmulatorCounters {
   std::uint64_t duplicated = 0;
   std::uint64_t tx_failed = 0;
   std::uint64_t bus_off_events = 0;
+  std::uint64_t setpoint_timeouts = 0;  // boards that tripped on their own timer
 };
 
 class Emulator {
@@ -87,6 +91,10 @@ class Emulator {
   bool outputs_enabled(int joint) const noexcept;
   NmtState nmt_state(int joint) const noexcept;
   std::uint64_t rpdos_received(int joint) const noexcept;
+  /// When the board tripped on its own set-point timer (−1: never) and how long after its last
+  /// SYNC or set-point (the fault reaction time as the board saw it), ns.
+  std::int64_t setpoint_trip_ns(int joint) const noexcept;
+  std::int64_t setpoint_trip_delay_ns(int joint) const noexcept;
 
   // --- fault injection ----------------------------------------------------------------------
   DeviceFaults& joint_faults(int joint) noexcept;
@@ -121,6 +129,9 @@ class Emulator {
     std::int32_t torque_mNm = 0;
     std::uint64_t rpdos = 0;
     std::int64_t next_heartbeat_ns = 0;
+    std::int64_t last_setpoint_ns = -1;  // last RPDO
+    std::int64_t op_entered_ns = -1;     // NMT start
+    std::int64_t trip_ns = -1, trip_delay_ns = 0;
     // the plant's values
     std::int32_t position_counts = 0, velocity_counts_s = 0, effort_counts = 0;
     std::array<std::int32_t, 3> gyro_urad_s{}, accel_um_s2{};
@@ -140,6 +151,7 @@ class Emulator {
     std::size_t delayed_size = 0;
     bool off = false;
     bool recovered = false;
+    std::int64_t last_sync_ns = -1;
     EmulatorCounters counters;
   };
 
@@ -150,12 +162,14 @@ class Emulator {
   void OnSync(BusState& b, std::uint8_t counter) noexcept;
   void Answer(BusState& b, Device& d, std::uint8_t counter) noexcept;
   void Nmt(Device& d, NmtCommand cmd) noexcept;
+  void CheckSetpointTimer(BusState& b, Device& d, std::int64_t now_ns) noexcept;
   void Queue(BusState& b, const CanFrame& f) noexcept;
   void Flush(BusState& b) noexcept;
   double Uniform() noexcept;
 
   HalConfig config_;
   std::int64_t heartbeat_period_ns_;
+  std::int64_t setpoint_timeout_ns_;
   std::vector<Device> devices_;
   std::vector<BusState> buses_;
   std::array<int, kNumJoints> joint_to_device_{};

@@ -50,6 +50,10 @@ struct TimingConfig {
   double heartbeat_timeout_s = 0.35;   // consumer time: no heartbeat for this long = device lost
   int max_missed_cycles = 3;           // consecutive cycles without inputs before OP -> SAFE-OP
   int min_valid_cycles_for_op = 5;     // consecutive valid cycles in SAFE-OP before enabling
+  /// The boards' own fault reaction (docs/can_protocol.md, "When the master goes silent"): a
+  /// board in OPERATIONAL that gets no SYNC, or (outputs on) no set-point, for this long on its
+  /// own timer sets 0 N·m, closes its valve, sends EMCY 0x8250 and leaves OPERATIONAL.
+  double device_setpoint_timeout_s = 0.008;
 };
 
 struct HalConfig {

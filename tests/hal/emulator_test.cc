@@ -134,6 +134,38 @@ TEST_F(EmulatorAlone, RpdoWatchdogMalformedRpdoStopAndBusOff) {
   }
 }
 
+// A master that dies sends nothing more, not even SYNCs, so a SYNC-counting watchdog never
+// fires: the boards' own timer does, within device_setpoint_timeout_s (+ one poll period).
+TEST_F(EmulatorAlone, DeadMasterTripsTheBoardsOnTheirOwnTimer) {
+  ASSERT_DOUBLE_EQ(config_.timing.device_setpoint_timeout_s, 0.008);
+  (void)Poll();
+  Send(EncodeNmt(NmtCommand::kStart, 0));
+  Send(EncodeActuatorRpdo(1, {50'900, control_bit::kEnable, 1, 0}));  // 50.9 N·m on a knee
+  Send(EncodeSync(1));
+  (void)Poll();
+  ASSERT_TRUE(emu_->outputs_enabled(3));
+  ASSERT_DOUBLE_EQ(emu_->torque_setpoint_Nm(3), 50.9);
+  std::vector<CanFrame> rx;
+  int polls = 0;
+  while (emu_->outputs_enabled(3) && polls < 100) {  // silence from here on: no SYNC, no RPDO
+    rx = Poll();
+    ++polls;
+  }
+  EXPECT_EQ(polls, 9);  // 1 ms per poll: tripped 9 ms after the last set-point (> 8 ms)
+  EXPECT_EQ(emu_->torque_setpoint_Nm(3), 0.0);
+  EXPECT_EQ(emu_->nmt_state(3), NmtState::kPreOperational);  // out of OP
+  EXPECT_EQ(emu_->setpoint_trip_delay_ns(3), 9'000'000);
+  EXPECT_LE(emu_->setpoint_trip_delay_ns(3), 10'000'000);
+  const CanFrame* e = Find(rx, 0x081);
+  ASSERT_NE(e, nullptr);
+  EmcyMessage m;
+  ASSERT_EQ(DecodeEmcy(*e, 1, &m), PdoStatus::kOk);
+  EXPECT_EQ(m.code, emcy::kRpdoTimeout);
+  // the other boards of the bus (outputs off, but in OP without SYNCs) left OP too
+  EXPECT_EQ(emu_->nmt_state(4), NmtState::kPreOperational);
+  EXPECT_EQ(emu_->counters(1).setpoint_timeouts, 3u);
+}
+
 TEST(EmulatorWithHal, RandomDropsAreCountedOneForOneOverManyCycles) {
   testing::HalRig rig(DefaultHalConfig(), /*seed=*/12345);
   rig.BringUp();
