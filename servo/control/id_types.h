@@ -71,6 +71,11 @@ struct FallbackCounters {
   std::uint64_t decomposition_failed = 0;
   std::uint64_t bad_input = 0;         // → safety
   std::uint64_t no_contact = 0;        // zero stance feet: contact-free ID by design
+  std::uint64_t clamped = 0;           // fallback torques clamped to the effort limits
 };
+
+/// Clamps each joint torque to ±Model::limits[j].effort_Nm (the fallbacks' torques: the method's
+/// own answer is never clamped here). Returns true if any joint was clamped. Never allocates.
+bool ClampToEffortLimits(const dynamics::Model& model, VectorJ* tau_Nm) noexcept;
 
 }  // namespace hyq::servo

@@ -66,6 +66,7 @@ IdStatus NoSlipId::Solve(const dynamics::Model& model, const dynamics::CycleDyna
       ++counters_.decomposition_failed;
       out->tau_Nm = ContactFreeId(dyn, in.qdd_des, &a_b);
       out->fallback = Fallback::kContactFreeId;
+      if (ClampToEffortLimits(model, &out->tau_Nm)) ++counters_.clamped;
     } else {
       Q_ = qr_.householderQ();
       const auto Qu = Q_.rightCols(kNv - rank);

@@ -41,6 +41,18 @@ const char* ToString(Fallback f) noexcept {
   return "unknown";
 }
 
+bool ClampToEffortLimits(const dynamics::Model& model, VectorJ* tau_Nm) noexcept {
+  bool clamped = false;
+  for (int j = 0; j < kJ; ++j) {
+    const double limit = model.limits[j].effort_Nm;
+    if (!(limit > 0.0)) continue;  // no limit given (the URDF loader demands one)
+    const double t = std::clamp((*tau_Nm)(j), -limit, limit);
+    clamped |= t != (*tau_Nm)(j);
+    (*tau_Nm)(j) = t;
+  }
+  return clamped;
+}
+
 const char* ToString(StageOneObjective o) noexcept {
   switch (o) {
     case StageOneObjective::kMaximumDissipation: return "maximum_dissipation";
@@ -139,6 +151,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
     ++counters_.stage1_failed;
     ContactFreeAnswer(dyn, in, f_id, a_b, out);
     out->fallback = Fallback::kContactFreeId;
+    if (ClampToEffortLimits(model, &out->tau_Nm)) ++counters_.clamped;
     have_last_ = false;
     return IdStatus::kFallback;
   }
@@ -160,6 +173,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
   if (settings_.stage2 && !RunStage2(h, out)) {
     ++counters_.stage2_failed;
     out->fallback = Fallback::kStage1Torque;
+    if (ClampToEffortLimits(model, &out->tau_Nm)) ++counters_.clamped;
     return IdStatus::kFallback;
   }
   return IdStatus::kOk;
@@ -235,10 +249,13 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
     return true;  // nothing to redistribute: Stage I's answer is the only one
   }
   const auto P = P_.leftCols(null_dim_);
+  qp::VectorN optimal_set_row;
+  const bool keep_objective = OptimalSetRow(&optimal_set_row);
 
-  // min ½ ‖h τ_I − G P w‖² (h² × eq 7, same minimiser) s.t. z + P w ≥ 0, friction rows (8)
+  // min ½ ‖h τ_I − G P w‖² (h² × eq 7, same minimiser) s.t. z + P w ≥ 0, friction rows (8),
+  // and gᵀP w = 0 (9): Stage I's objective stays at its optimum
   GP_.noalias() = G_.lazyProduct(P);
-  p2_.Resize(null_dim_, nz + nc);
+  p2_.Resize(null_dim_, nz + nc + (keep_objective ? 1 : 0));
   p2_.H.noalias() = GP_.transpose().lazyProduct(GP_);
   p2_.g.noalias() = -(GP_.transpose() * (h * out->tau_Nm));
   // w = 0 must be exactly feasible: Stage I's z meets z ≥ 0 and the friction rows only to the
@@ -261,6 +278,15 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
       for (int k = 0; k < set_.tangents; ++k) p2_.lbA(set_.TangentIndex(i, k)) = -qp::kInf;
     }
   }
+  if (keep_objective) {
+    // one equality row rather than a reduced basis P · null(gᵀP): the rows z + P w ≥ 0 keep
+    // P's exact zeros and w = 0 stays exactly feasible. (Both forms leave a few degenerate
+    // problems, pinned to w = 0 by several feet sliding on their friction limits, at the
+    // iteration budget: then Stage I's torque, which is Stage I-optimal too, is used.)
+    p2_.A.row(nz + nc) = optimal_set_row.transpose();
+    p2_.lbA(nz + nc) = 0.0;
+    p2_.ubA(nz + nc) = 0.0;
+  }
   const bool warm = last_null_dim_ == null_dim_ && have_last_;
   last_null_dim_ = null_dim_;
   const qp::Status st = solver2_.Solve(p2_, MakeBudget(warm, settings_.stage2_max_iterations), &s2_);
@@ -276,6 +302,31 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
   z2.noalias() += P * w;
   ImpulsesFromZ(set_, z2, &out->impulses);
   out->stage2.objective = 0.5 * out->tau_Nm.squaredNorm();
+  return true;
+}
+
+// Stage I's optimal set is {feasible z : R_b z = R_b z*, gᵀz = gᵀz*} (every minimiser of a
+// convex QP has the same H z and gᵀz, and H = YᵀY with Y = L⁻¹R_b). P keeps R_b z; along it
+//   f(z + P w) − f(z) = (H z + g)ᵀ P w + ½ wᵀPᵀHPw = gᵀP w        (H P = R_bᵀA⁻¹ R_b P = 0)
+// which is the work Σ_i v_c,iᵀ Δimpulse_i of the redistributed impulses on the contact
+// velocities (H z + g = Rᵀv*): zero on sticking contacts, not on sliding or separating ones.
+// Fills *row with (Pᵀg)ᵀ / ‖Pᵀg‖ and returns true when Stage II needs the row gᵀP w = 0 (9);
+// false when Pᵀg is rounding-sized (every contact sticks, or the kinetic-energy objective, whose
+// g is in range(R_bᵀ)). Only the internal-force columns can contribute: a cancelling pair of
+// tangent directions has R P = 0, so its entry v*ᵀ R P is exactly 0 and stays so (a row with
+// rounding noise there would couple it to the others).
+bool TwoStageId::OptimalSetRow(qp::VectorN* row) const noexcept {
+  const int nz = set_.num_impulses();
+  const auto g = p1_.g.head(nz);
+  row->setZero(null_dim_);
+  double c_max = 0.0, rounding = 0.0;
+  for (int j = 0; j < internal_cols_; ++j) {
+    (*row)(j) = P_.col(j).dot(g);
+    c_max = std::max(c_max, std::abs((*row)(j)));
+    rounding = std::max(rounding, P_.col(j).cwiseAbs().dot(g.cwiseAbs()));
+  }
+  if (!(c_max > settings_.optimal_set_tolerance * rounding)) return false;
+  *row /= row->norm();
   return true;
 }
 
@@ -307,7 +358,8 @@ bool TwoStageId::BuildNullSpace() noexcept {
   for (int i = 0; i < nc; ++i) frictional += set_.mu[i] > settings_.frictionless_mu;
   // with fewer than three directions a tangent force cannot always be written in them
   const bool liftable = r >= 3;
-  null_dim_ = (liftable ? internal : 0) + frictional * cancelling;
+  internal_cols_ = liftable ? internal : 0;
+  null_dim_ = internal_cols_ + frictional * cancelling;
   if (null_dim_ == 0) return false;
   P_.setZero(nz, null_dim_);
   int col = 0;

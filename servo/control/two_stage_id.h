@@ -22,13 +22,19 @@
 // (StageOneObjective; derivation in docs/inverse_dynamics.md).
 //
 // Stage II (eqs 7–9). Every z + P w with P = null(Z) = null(R_b) gives the same v*, so the same
-// kinetic energy (9), the same contact-point velocities and the same non-penetration rows: the
-// motion is unchanged, only the impulses are redistributed. Among them,
-//   min ½ ‖τ(z + P w)‖² = ½ ‖τ_I − G P w / h‖²   s.t.  z + P w ≥ 0, friction rows.
+// kinetic energy, the same contact-point velocities and the same non-penetration rows: the
+// motion is unchanged, only the impulses are redistributed. Along P the Stage I objective
+// changes by gᵀP w (H P = 0), the work of the redistributed impulses on the contact velocities:
+// zero on sticking contacts, not on sliding or separating ones. Stage I's optimal set is
+// {feasible z : R_b z = R_b z*, gᵀz = gᵀz*}, so Stage II keeps gᵀP w = 0 (9), one equality row
+// (none when ‖Pᵀg‖ is rounding-sized, TwoStageSettings::optimal_set_tolerance). Among them,
+//   min ½ ‖τ(z + P w)‖² = ½ ‖τ_I − G P w / h‖²   s.t.  z + P w ≥ 0, friction rows, gᵀP w = 0.
 // (The paper's eq 7 minimises ‖τ‖; its authors' code minimised ‖τ − f_ID‖.)
 //
 // Fallbacks, each counted (FallbackCounters), never an exception or an allocation:
 // Stage II fails → Stage I's torque; Stage I fails → contact-free ID; bad input → kSafety.
+// A fallback torque is clamped per joint to the model's effort limits (counted in
+// FallbackCounters::clamped; v_star and the impulses stay those of the unclamped torque).
 // Zero stance feet: the contact-free ID is the answer.
 #pragma once
 
@@ -75,6 +81,10 @@ struct TwoStageSettings {
   /// Wall-clock budget per QP (none by default; the servo loop sets one).
   std::optional<std::chrono::nanoseconds> time_budget;
   double null_space_tolerance = 1e-9;  // relative, rank decision for the internal forces
+  /// Stage II stays in Stage I's optimal set (9) by keeping gᵀP w = 0; ‖Pᵀg‖∞ at or below this
+  /// times ‖|P|ᵀ|g|‖∞ (the size of the rounding in Pᵀg) counts as zero and adds no row.
+  /// +∞ drops the row (the behaviour before issue 16, for comparison only).
+  double optimal_set_tolerance = 1e-9;
   /// A contact with μ at or below this is frictionless: its tangential impulses are fixed at 0
   /// (instead of being squeezed to 0 by nearly dependent friction rows).
   double frictionless_mu = 1e-6;
@@ -138,9 +148,11 @@ class TwoStageId {
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxImpulses,
                 kMaxImpulses> P_;
   bool BuildNullSpace() noexcept;
+  bool OptimalSetRow(qp::VectorN* row) const noexcept;
   Eigen::Matrix<double, dynamics::kNumJoints, Eigen::Dynamic, Eigen::ColMajor,
                 dynamics::kNumJoints, kMaxImpulses> GP_;
   int null_dim_ = 0;
+  int internal_cols_ = 0;  // P's leading columns that are internal forces (the rest: tangent pairs)
   int last_null_dim_ = -1;
   qp::Problem p2_;
   qp::Solution s2_;

@@ -32,9 +32,13 @@ inline servo::IdInput StandingInput(std::mt19937_64* rng, std::array<bool, 4> st
 /// Makes v and q̈_des contact-consistent for the stance feet: the base moves with twist
 /// v_base and acceleration a_base, and each stance leg's joints are solved so that its contact
 /// point has zero velocity and zero acceleration (J_c v = 0, J_c v̇ + J̇_c v = 0). Swing legs get
-/// the given random joint rates / accelerations.
+/// the given random joint rates / accelerations. With velocity_level, q̈_des instead gives
+/// J_c v̇ = 0, so that the step of eqs 5–6 keeps the contact points still, J_c (v + h v̇) = 0:
+/// with v ≠ 0, acceleration-level consistency leaves them a velocity −h J̇_c v, which the
+/// velocity-level model sees as (micro-)sliding.
 inline void MakeContactConsistent(servo::IdInput* in, const dynamics::Vector6d& v_base,
-                                  const dynamics::Vector6d& a_base, std::mt19937_64* rng) {
+                                  const dynamics::Vector6d& a_base, std::mt19937_64* rng,
+                                  bool velocity_level = false) {
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   auto d = std::make_unique<dynamics::CycleDynamics>();
   in->v.setZero();
@@ -51,7 +55,7 @@ inline void MakeContactConsistent(servo::IdInput* in, const dynamics::Vector6d& 
       const auto& J = set.J_c[i];
       const Eigen::Matrix3d J_leg = J.middleCols<3>(6 + 3 * leg);
       Eigen::Vector3d rhs = -J.leftCols<6>() * (pass == 0 ? v_base : a_base);
-      if (pass == 1) rhs -= set.Jdot_c_v[i];
+      if (pass == 1 && !velocity_level) rhs -= set.Jdot_c_v[i];
       for (int other = 0; other < 4; ++other) {
         if (other == leg) continue;
         const Eigen::Vector3d x_other = pass == 0 ? Eigen::Vector3d(in->v.segment<3>(6 + 3 * other))
