@@ -7,6 +7,7 @@
 #include <Eigen/SVD>
 
 #include "servo/control/contact_free_id.h"
+#include "servo/control/friction_cone.h"
 
 namespace hyq::servo {
 namespace {
@@ -221,7 +222,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
   }
   p1_.lb.setZero();  // (29); ub stays +inf
   for (int i = 0; i < nc; ++i) {
-    if (set_.mu[i] <= settings_.frictionless_mu)
+    if (Frictionless(set_, i, settings_.frictionless_mu))
       for (int k = 0; k < set_.tangents; ++k) p1_.ub(set_.TangentIndex(i, k)) = 0.0;
   }
   for (int i = 0; i < nc; ++i) {
@@ -229,10 +230,9 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
     const int ni = set_.NormalIndex(i);
     p1_.A.row(i).noalias() = R_b.col(ni).transpose() * Z_;
     p1_.lbA(i) = -(R_b.col(ni).dot(p_) + R_q.col(ni).dot(v_star_q_));
-    // (30): μ_i c_N,i − Σ_k c_D,ik ≥ 0
-    p1_.A(nc + i, ni) = set_.mu[i];
-    for (int k = 0; k < set_.tangents; ++k) p1_.A(nc + i, set_.TangentIndex(i, k)) = -1.0;
-    p1_.lbA(nc + i) = set_.mu[i] <= settings_.frictionless_mu ? -qp::kInf : 0.0;  // implied
+    // (30): μ_i c_N,i − Σ_k c_D,ik ≥ 0 (servo/control/friction_cone.h)
+    FrictionConeRow(set_, i, p1_.A.row(nc + i).head(nz));
+    p1_.lbA(nc + i) = Frictionless(set_, i, settings_.frictionless_mu) ? -qp::kInf : 0.0;  // implied
   }
   const bool warm = have_last_ && last_stance_ == in.stance;
   const qp::Status st = solver1_.Solve(p1_, MakeBudget(warm, settings_.max_iterations), &s1_);
@@ -263,16 +263,10 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
   p2_.A.topRows(nz) = P;
   p2_.lbA.head(nz) = (-z).cwiseMin(0.0);
   for (int i = 0; i < nc; ++i) {
-    const int ni = set_.NormalIndex(i);
-    double slack = set_.mu[i] * z(ni);
-    p2_.A.row(nz + i) = set_.mu[i] * P.row(ni);
-    for (int k = 0; k < set_.tangents; ++k) {
-      const int ti = set_.TangentIndex(i, k);
-      p2_.A.row(nz + i) -= P.row(ti);
-      slack -= z(ti);
-    }
-    p2_.lbA(nz + i) = std::min(-slack, 0.0);
-    if (set_.mu[i] <= settings_.frictionless_mu) {
+    // (30) at z + P w: (μ_i e_N,i − Σ_k e_D,ik)ᵀ P w ≥ −slack(z)
+    FrictionConeRowOf(set_, i, P, p2_.A.row(nz + i));
+    p2_.lbA(nz + i) = std::min(-FrictionConeSlack(set_, i, z), 0.0);
+    if (Frictionless(set_, i, settings_.frictionless_mu)) {
       // P keeps this contact's tangential impulses at 0: their rows and the friction row hold
       p2_.lbA(nz + i) = -qp::kInf;
       for (int k = 0; k < set_.tangents; ++k) p2_.lbA(set_.TangentIndex(i, k)) = -qp::kInf;
@@ -338,12 +332,12 @@ bool TwoStageId::BuildNullSpace() noexcept {
   // contributes only its normal (one row n_iᵀ J_c,i,b), the others all three directions
   std::array<int, kMaxContacts> first_row{};
   int rows = 0;
-  for (int i = 0; i < nc; ++i) rows += set_.mu[i] <= settings_.frictionless_mu ? 1 : 3;
+  for (int i = 0; i < nc; ++i) rows += Frictionless(set_, i, settings_.frictionless_mu) ? 1 : 3;
   Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor, kMaxForceRows, 6> Wt(rows, 6);
   rows = 0;
   for (int i = 0; i < nc; ++i) {
     first_row[i] = rows;
-    if (set_.mu[i] <= settings_.frictionless_mu) {
+    if (Frictionless(set_, i, settings_.frictionless_mu)) {
       Wt.row(rows++) = set_.normal_W[i].transpose() * set_.J_c[i].leftCols<kB>();
     } else {
       Wt.middleRows<3>(rows) = set_.J_c[i].leftCols<kB>();
@@ -355,7 +349,7 @@ bool TwoStageId::BuildNullSpace() noexcept {
   const int internal = rows - static_cast<int>(qr_.rank());
   const int cancelling = static_cast<int>(tangent_null_.cols());
   int frictional = 0;
-  for (int i = 0; i < nc; ++i) frictional += set_.mu[i] > settings_.frictionless_mu;
+  for (int i = 0; i < nc; ++i) frictional += !Frictionless(set_, i, settings_.frictionless_mu);
   // with fewer than three directions a tangent force cannot always be written in them
   const bool liftable = r >= 3;
   internal_cols_ = liftable ? internal : 0;
@@ -372,7 +366,7 @@ bool TwoStageId::BuildNullSpace() noexcept {
     for (int j = 0; j < internal; ++j, ++col) {
       const auto f = Qw_.col(j);
       for (int i = 0; i < nc; ++i) {
-        if (set_.mu[i] <= settings_.frictionless_mu) {
+        if (Frictionless(set_, i, settings_.frictionless_mu)) {
           P_(set_.NormalIndex(i), col) = f(first_row[i]);
           continue;
         }
@@ -385,7 +379,7 @@ bool TwoStageId::BuildNullSpace() noexcept {
     }
   }
   for (int i = 0; i < nc; ++i) {
-    if (set_.mu[i] <= settings_.frictionless_mu) continue;
+    if (Frictionless(set_, i, settings_.frictionless_mu)) continue;
     for (int j = 0; j < cancelling; ++j, ++col)
       for (int k = 0; k < r; ++k) P_(set_.TangentIndex(i, k), col) = tangent_null_(k, j);
   }

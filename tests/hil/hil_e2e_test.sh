@@ -15,6 +15,10 @@
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR vcan
 #       lock-step over SocketCAN (vcan0..3, CAN FD) inside ../shared/tools/run-in-vcan-vm when
 #       this kernel has no vcan: bring-up, 0.3 s of standing with the two-stage ID, clean stop.
+#   hil_e2e_test.sh BUILD_DIR OUT_DIR kill9
+#       real time: the daemon trots, then dies by SIGKILL (no stop, no last frame): every board
+#       drops its set-point on its own timer within 10 ms of its last SYNC / set-point
+#       (docs/can_protocol.md), with no torque left on any joint.
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR mainjob
 #       the README's main-job command itself (scripts/run.sh), shortened to 1 s.
 set -uo pipefail
@@ -88,6 +92,47 @@ case "$mode" in
     check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['to'] == 'damping'"
     check_json "s['event_log'][-1]['to'] == 'stopped'"
     decode_log
+    ;;
+  kill9)
+    # the deadline policy relaxed: this run checks the boards' reaction, not the daemon's timing
+    # on a shared 2-core machine (a daemon that stopped on its own would leave nothing to test)
+    # and the late-answer tolerances too (hyq-sim steps on SCHED_OTHER beside it: issue 17)
+    sed -e 's|^  max_missed_cycles: .*|  max_missed_cycles: 200|' "$here/config/hyq_hal.yaml" > "$out/rt_hal.yaml"
+    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $out/rt_hal.yaml|" \
+        "$here/config/hyq_servo_sim.yaml" > "$out/rt_servo.yaml"
+    printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\nsafety:\n  max_missing_cycles: 200\n' >> "$out/rt_servo.yaml"
+    cat > "$out/kill9.sh" <<EOS
+#!/bin/bash
+set -u
+ip link set lo up; ip route add 224.0.0.0/4 dev lo
+"$build/tools/hyq-sim/hyq-sim" --mode realtime --mu 0.1 --summary "$out/sim.json" --truth "$out/truth.csv" --quiet 2>"$out/sim.log" &
+sim=\$!
+sleep 0.3
+"$build/tools/hyq-servod/hyq-servod" --config "$out/rt_servo.yaml" --clock realtime --auto-enable \
+  --reference trot --controller two_stage --mu 0.1 --duration 0 --no-telemetry 2>"$out/servod.log" &
+servod=\$!
+sleep 4
+kill -KILL \$servod || { echo "kill9: the daemon had exited before the kill" >&2; tail -5 "$out/servod.log" >&2; kill -TERM \$sim; exit 1; }
+wait \$servod 2>/dev/null
+sleep 0.5
+kill -TERM \$sim; wait \$sim
+EOS
+    chmod +x "$out/kill9.sh"
+    unshare -n "$out/kill9.sh" || fail "the kill -9 run failed"
+    echo '{}' > "$out/servod.json"
+    grep -E "^hyq-servod: .*(ACTIVE|active)" "$out/servod.log" | head -2 || true
+    check_json "sim['boards_tripped'] == 12"
+    check_json "sim['max_trip_delay_ms'] <= 10.0"
+    check_json "sim['max_abs_setpoint_Nm'] == 0.0"
+    # the robot was under torque before the kill (truth.csv: time, base q 7, q 12, v 12, tau 12)
+    "$py" - "$out/truth.csv" <<'PY' || fail "no torque was applied before the kill"
+import csv, sys
+rows = [list(map(float, r)) for r in csv.reader(open(sys.argv[1])) if r and r[0][0].isdigit()]
+peak = max(max(abs(x) for x in r[32:44]) for r in rows)
+last = max(abs(x) for x in rows[-1][32:44])
+print(f"hil_e2e_test: peak |tau| applied {peak:.1f} N m, at the end {last:.1f} N m")
+sys.exit(0 if peak > 10.0 and last < 1e-9 else 1)
+PY
     ;;
   vcan)
     vm="$here/../shared/tools/run-in-vcan-vm"

@@ -21,6 +21,17 @@ std::vector<unsigned char> Encode(const K& m) {
   return b;
 }
 
+K SetMu(const char* controller) {
+  K m{};
+  m.sequence = 7;
+  m.kind = K::KIND_SET_MU;
+  m.num_feet = 4;
+  m.mu = {0.1, 0.2, 0.3, 0.4};
+  m.controller = controller;
+  m.kp_scale = m.kd_scale = 1.0;
+  return m;
+}
+
 K Enable() {
   K m{};
   m.sequence = 7;
@@ -32,11 +43,7 @@ K Enable() {
 }
 
 TEST(DecodeCommand, AcceptsWhatTheGeneratedEncoderWrites) {
-  K mu = Enable();
-  mu.kind = K::KIND_SET_MU;
-  mu.num_feet = 4;
-  mu.mu = {0.1, 0.2, 0.3, 0.4};
-  mu.controller = "two_stage";
+  const K mu = SetMu("two_stage");
   const auto b = Encode(mu);
   K out;
   char why[kEventDetailSize];
@@ -72,12 +79,7 @@ TEST(DecodeCommand, ZeroAndOversizedStringLengthsAreRefused) {
 }
 
 TEST(DecodeCommand, TruncatedAndCorruptedDatagramsNeverThrow) {
-  K mu = Enable();
-  mu.kind = K::KIND_SET_MU;
-  mu.num_feet = 4;
-  mu.mu = {0.1, 0.2, 0.3, 0.4};
-  mu.controller = "pid";
-  const auto good = Encode(mu);
+  const auto good = Encode(SetMu("pid"));
   K out;
   char why[kEventDetailSize];
   for (std::size_t n = 0; n < good.size(); ++n)

@@ -318,32 +318,50 @@ int main(int argc, char** argv) {
                  config.hal.buses.size());
 
   if (telemetry) telemetry->Start();
-  std::int64_t start_ns = 0;
-  try {
-    start_ns = hyq::servo::BringUp(*hal, config, lockstep);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "hyq-servod: bring-up failed: %s\n", e.what());
-    return 1;
-  }
-
+  // the bring-up runs on the servo thread, after its real-time set-up, and the loop follows at
+  // once on the same SYNC schedule: a board in OP trips on its own timer when SYNCs pause
+  // (timing.device_setpoint_timeout_s), so there must be no gap between the two
   const std::int64_t wall0 = hyq::MonotonicNs();
   std::atomic<bool> servo_done{false};
   std::atomic<bool> rt_ready{false};  // release/acquire: the report is the servo thread's until then
   hyq::servo::RealtimeReport rt;
+  std::string bringup_error;  // the servo thread's until servo_done
+  // (lock-step: the boards run on the simulator's virtual time, which stands still between
+  // SYNCs, so the bring-up stays where it was, before the servo thread's set-up)
+  const bool lockstep_clock = config.clock == hyq::servo::ClockMode::kLockstep;
+  std::int64_t start_ns = 0;
+  if (lockstep_clock) {
+    try {
+      start_ns = hyq::servo::BringUp(*hal, config, lockstep);
+    } catch (const std::exception& e) {
+      if (telemetry) telemetry->Stop();
+      std::fprintf(stderr, "hyq-servod: bring-up failed: %s\n", e.what());
+      return 1;
+    }
+  }
   std::thread servo([&] {
     rt = hyq::servo::SetUpRealtimeThread(config.realtime);
     rt_ready.store(true, std::memory_order_release);
+    if (!lockstep_clock) {
+      try {
+        start_ns = hyq::servo::BringUp(*hal, config, lockstep);
+      } catch (const std::exception& e) {
+        bringup_error = e.what();
+        servo_done.store(true, std::memory_order_release);
+        return;
+      }
+    }
     loop->Start(start_ns);
-    if (config.clock == hyq::servo::ClockMode::kLockstep)
+    if (lockstep_clock)
       hyq::servo::RunLockstep(*loop, *hal, config, lockstep, start_ns);
     else
-      hyq::servo::RunRealtime(*loop, config, hyq::MonotonicNs());
-    servo_done.store(true);
+      hyq::servo::RunRealtime(*loop, config, start_ns);
+    servo_done.store(true, std::memory_order_release);
   });
 
   bool warned = false, overrun_done = false, stopped_in_fault = false;
   std::int64_t next_progress = hyq::MonotonicNs() + 1'000'000'000;
-  while (!servo_done.load()) {
+  while (!servo_done.load(std::memory_order_acquire)) {
     const timespec wait{0, 50'000'000};
     const int sig = sigtimedwait(&signals, nullptr, &wait);
     if (sig == SIGINT || sig == SIGTERM) {
@@ -371,6 +389,11 @@ int main(int argc, char** argv) {
     }
   }
   servo.join();
+  if (!bringup_error.empty()) {
+    if (telemetry) telemetry->Stop();
+    std::fprintf(stderr, "hyq-servod: bring-up failed: %s\n", bringup_error.c_str());
+    return 1;
+  }
   if (telemetry) telemetry->Stop();  // publishes what is still queued
   const double wall_s = 1e-9 * static_cast<double>(hyq::MonotonicNs() - wall0);
 

@@ -4,6 +4,7 @@
 // docs/simulation.md describes the modes, the models, the faults and this command line.
 #include <signal.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstdio>
@@ -297,7 +298,28 @@ int Run(const Options& o) {
       << ",\n"
       << "  \"lockstep_forced_steps\": " << c.lockstep_forced << ",\n"
       << "  \"realtime_overruns\": " << c.realtime_overruns << ",\n"
-      << "  \"faults_injected\": " << c.faults_injected << ",\n  \"faults\": [";
+      << "  \"faults_injected\": " << c.faults_injected << ",\n";
+    // the boards at exit: their set-points, and whether they tripped on their own timer (a
+    // silent master) and how long after the last SYNC / set-point
+    int tripped = 0;
+    double max_trip_delay_ms = 0.0, max_abs_setpoint_Nm = 0.0;
+    s << "  \"boards\": [";
+    for (int j = 0; j < hal::kNumJoints; ++j) {
+      const hal::Emulator& e = robot.emulator();
+      const bool trip = e.setpoint_trip_ns(j) >= 0;
+      const double delay_ms = 1e-6 * static_cast<double>(e.setpoint_trip_delay_ns(j));
+      tripped += trip ? 1 : 0;
+      if (trip) max_trip_delay_ms = std::max(max_trip_delay_ms, delay_ms);
+      max_abs_setpoint_Nm = std::max(max_abs_setpoint_Nm, std::abs(e.torque_setpoint_Nm(j)));
+      s << (j ? ", " : "") << "{\"joint\": " << JsonString(std::string(hal::JointName(j)))
+        << ", \"setpoint_Nm\": " << e.torque_setpoint_Nm(j)
+        << ", \"outputs_enabled\": " << (e.outputs_enabled(j) ? "true" : "false")
+        << ", \"tripped\": " << (trip ? "true" : "false")
+        << ", \"trip_delay_ms\": " << (trip ? delay_ms : 0.0) << "}";
+    }
+    s << "],\n  \"boards_tripped\": " << tripped << ",\n"
+      << "  \"max_trip_delay_ms\": " << max_trip_delay_ms << ",\n"
+      << "  \"max_abs_setpoint_Nm\": " << max_abs_setpoint_Nm << ",\n  \"faults\": [";
     for (std::size_t i = 0; i < robot.faults().size(); ++i) {
       const sim::FaultSpec& f = robot.faults()[i];
       s << (i ? ", " : "") << "{\"spec\": " << JsonString(f.text) << ", \"t_s\": " << f.t_s
