@@ -1,7 +1,7 @@
 // A channel wrapper that lets a caller see whether the TPDOs answering the last SYNC have arrived
 // before the HAL's Read takes them: Pump() moves pending frames into a fixed buffer and counts
 // the TPDOs; Receive() hands the HAL exactly the same frames, in order. Used by the daemon's
-// lock-step clock (servo/servo_runner.h) and the virtual-bus test rig. Never allocates after
+// lock-step clock (servo/runtime/servo_runner.h) and the virtual-bus test rig. Never allocates after
 // construction.
 #pragma once
 

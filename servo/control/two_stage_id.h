@@ -1,7 +1,7 @@
 // The two-stage contact-aware inverse dynamics of Zapolsky, Drumwright, Havoutis, Buchli and
 // Semini, "Inverse Dynamics for a Quadruped Robot Locomoting Along Slippery Surfaces" (2015).
 //
-// Stage I (eqs 10–30). With the contact-free torques f_ID (servo/contact_free_id.h), the external
+// Stage I (eqs 10–30). With the contact-free torques f_ID (servo/control/contact_free_id.h), the external
 // forces f_ext = −h, and M = [A B; Bᵀ C], M⁻¹ = [D E; Eᵀ F] (13, 14):
 //   j = v_b + [D E](h f_ext + [0; h f_ID]),  k = v_q + [Eᵀ F](h f_ext + [0; h f_ID])   (15, 16)
 //   Z = ([D E] − E F⁻¹ [Eᵀ F]) R = A⁻¹ R_b,   p = j + E F⁻¹(v*_q − k) = j − A⁻¹B (v*_q − k)
@@ -65,7 +65,7 @@ const char* ToString(StageOneObjective o) noexcept;
 
 struct TwoStageSettings {
   StageOneObjective objective = StageOneObjective::kMaximumDissipation;
-  /// The h of eqs 5–6 used by the controllers (servo/controller.h), s; 0: the control period.
+  /// The h of eqs 5–6 used by the controllers (servo/control/controller.h), s; 0: the control period.
   /// The method corrects contact-point velocities within h, so h = 1 ms makes a very stiff
   /// loop on compliant contact (docs/inverse_dynamics.md, "Horizon").
   double horizon_s = 0.0;

@@ -1,4 +1,4 @@
-// hyq-id: solves ID problem files (servo/id_record.h) line by line.
+// hyq-id: solves ID problem files (servo/control/id_record.h) line by line.
 #include <chrono>
 #include <iostream>
 #include <cstdio>

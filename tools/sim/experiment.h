@@ -1,5 +1,5 @@
 // One simulated experiment (docs/experiments.md): the MuJoCo HyQ, the controller the daemon runs
-// (servo/controller.h) with the true state, a reference (stand, trot, figure eight), 1 kHz.
+// (servo/control/controller.h) with the true state, a reference (stand, trot, figure eight), 1 kHz.
 #pragma once
 
 #include <functional>
