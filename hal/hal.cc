@@ -87,9 +87,23 @@ void Bus::HandleFrame(const CanFrame& f, StateMachineContext& ctx) noexcept {
     return;
   }
   const FrameAddress a = f.is_extended() ? FrameAddress{} : Classify(f.id);
+  switch (a.kind) {
+    case FrameKind::kNmt:
+    case FrameKind::kSync:
+    case FrameKind::kRpdo1:
+    case FrameKind::kRpdo2:
+    case FrameKind::kRpdo3:
+    case FrameKind::kRpdo4:
+      // only the master sends these, and the master is us: another sender is on the bus
+      ++counters_.foreign_master;
+      counters_.last_foreign_id = f.id;
+      return;
+    default:
+      break;
+  }
   const int index = a.node <= kMaxNodeId ? node_to_device_[a.node] : -1;
   if (a.kind == FrameKind::kUnknown || index < 0) {
-    // another master's SYNC/NMT or a node we do not own: not ours, not a fault of ours
+    // a node we do not own: not ours, not a fault of ours
     ++counters_.unknown;
     return;
   }

@@ -51,6 +51,10 @@ struct BusCounters {
   std::uint64_t duplicate = 0;
   std::uint64_t malformed = 0;       // frames that failed to decode (never used)
   std::uint64_t unknown = 0;         // frames from ids no configured device owns
+  /// SYNC, NMT or RPDO frames received: the HAL is the only sender of those on its buses (the
+  /// drivers drop the HAL's own echoes), so each is a second master or a spoofer
+  std::uint64_t foreign_master = 0;
+  std::uint32_t last_foreign_id = 0; // COB-ID of the last one
   std::uint64_t error_frames = 0;    // error frames passed up by the driver
   std::uint64_t emcy = 0;
   std::uint64_t bad_commands = 0;    // non-finite torque commands replaced by 0

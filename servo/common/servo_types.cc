@@ -36,6 +36,7 @@ const char* ToString(EventReason r) noexcept {
     case EventReason::kEstimatorFailure: return "estimator_failure";
     case EventReason::kCommandRejected: return "command_rejected";
     case EventReason::kCommandApplied: return "command_applied";
+    case EventReason::kForeignMaster: return "foreign_master";
     case EventReason::kCount: break;
   }
   return "?";

@@ -68,6 +68,7 @@ enum class EventReason : std::uint16_t {
   kEstimatorFailure,      // non-finite or implausible base state
   kCommandRejected,       // a command on the command channel was refused (detail says why)
   kCommandApplied,        // a command changed a setting (detail says which)
+  kForeignMaster,         // a SYNC, NMT or RPDO frame the daemon did not send (a second master)
   kCount,                 // not a reason: the number of reasons
 };
 inline constexpr std::size_t kNumEventReasons = static_cast<std::size_t>(EventReason::kCount);

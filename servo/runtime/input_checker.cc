@@ -32,6 +32,7 @@ void InputChecker::Reset(const hal::Hal& hal) noexcept {
     malformed_[b] = c.malformed;
     bus_off_[b] = c.bus_off;
     error_frames_[b] = c.error_frames;
+    foreign_[b] = c.foreign_master;
   }
 }
 
@@ -53,9 +54,16 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
       note(MakeFault(EventReason::kCorruptFrames, -1, bi, "bus %s: %llu malformed frame(s)",
                      hal.config().buses[b].name.c_str(),
                      static_cast<unsigned long long>(c.malformed - malformed_[b])));
+    if (c.foreign_master != foreign_[b])
+      note(MakeFault(EventReason::kForeignMaster, -1, bi,
+                     "bus %s: %llu SYNC/NMT/RPDO frame(s) the daemon did not send (last id 0x%03x)",
+                     hal.config().buses[b].name.c_str(),
+                     static_cast<unsigned long long>(c.foreign_master - foreign_[b]),
+                     static_cast<unsigned>(c.last_foreign_id)));
     malformed_[b] = c.malformed;
     bus_off_[b] = c.bus_off;
     error_frames_[b] = c.error_frames;
+    foreign_[b] = c.foreign_master;
   }
   if (read_status == hal::HalStatus::kBusOff && !first)
     note(MakeFault(EventReason::kBusOff, -1, -1, "the HAL reports bus-off"));

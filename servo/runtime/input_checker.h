@@ -29,7 +29,8 @@ class InputChecker {
   std::array<double, hal::kNumJoints> q_min_{}, q_max_{};
   std::array<double, hal::kNumJoints> last_q_{};
   std::array<bool, hal::kNumJoints> have_last_{};
-  std::array<std::uint64_t, hal::kMaxBuses> malformed_{}, bus_off_{}, error_frames_{};
+  std::array<std::uint64_t, hal::kMaxBuses> malformed_{}, bus_off_{}, error_frames_{},
+      foreign_{};
 };
 
 }  // namespace hyq::servo

@@ -122,6 +122,12 @@ TEST_P(ServoFault, ReachesTheSafeStateWithinTwoCycles) {
       << ToString(rig.loop->mode());
 }
 
+// A frame put on bus `bus` by someone other than the daemon (it reaches the HAL and the boards).
+void SendFromDeviceSide(ServoRig& r, int bus, const hal::CanFrame& f) {
+  std::size_t sent = 0;
+  ASSERT_EQ(r.device_side[static_cast<std::size_t>(bus)]->Send({&f, 1}, &sent), hal::CanStatus::kOk);
+}
+
 std::vector<FaultCase> Cases() {
   return {
       {"device_silent", EventReason::kInputMissing,
@@ -143,6 +149,13 @@ std::vector<FaultCase> Cases() {
       {"bad_command", EventReason::kCommandRejected,
        [](ServoRig& r) { r.sink.commands.push_back({.kind = ServoCommand::Kind::kRejected}); }, 0},
       {"stop_request", EventReason::kStopRequest, [](ServoRig& r) { r.loop->RequestStop(); }, 0},
+      // a second master: the daemon is the only sender of SYNC, NMT and RPDOs on its buses
+      {"spoofed_rpdo", EventReason::kForeignMaster,
+       [](ServoRig& r) { SendFromDeviceSide(r, 0, hal::EncodeActuatorRpdo(2, {50'000, 1, 0, 0})); }, 0},
+      {"spoofed_sync", EventReason::kForeignMaster,
+       [](ServoRig& r) { SendFromDeviceSide(r, 3, hal::EncodeSync(7)); }, 0},
+      {"spoofed_nmt", EventReason::kForeignMaster,
+       [](ServoRig& r) { SendFromDeviceSide(r, 1, hal::EncodeNmt(hal::NmtCommand::kStart, 0)); }, 0},
   };
 }
 
