@@ -22,6 +22,8 @@ using testing::NearRel;
 
 constexpr std::array<bool, 4> kAll{true, true, true, true};
 constexpr std::array<bool, 4> kLfRh{true, false, false, true};
+constexpr std::array<std::array<bool, 4>, 3> kSlipperyStances{
+    kAll, std::array<bool, 4>{true, true, false, true}, kLfRh};
 constexpr std::array<bool, 4> kRfLh{false, true, true, false};
 
 std::unique_ptr<CycleDynamics> Dyn(const IdInput& in) {
@@ -154,6 +156,20 @@ class TwoStage : public ::testing::Test {
   // then a no-op), μ in [0.05, 0.3] per foot, and a q̈_des far from contact-consistent (base
   // accelerations up to 3 m/s² and 3 rad/s², then up to ±20 rad/s² on every joint), so that
   // stance feet slide and some lift off.
+  // The 40 slippery problems of the eq 9 tests (seed 16), each with Stage I's answer and that of
+  // both stages with (9).
+  template <class F>
+  void ForEachSlipperyProblem(F&& check) {
+    rng_.seed(16);
+    for (int trial = 0; trial < 40; ++trial) {
+      const IdInput in = Slippery(kSlipperyStances[trial % 3]);
+      const auto d = Dyn(in);
+      IdOutput o1, o2;
+      ASSERT_NO_FATAL_FAILURE(SolveBothStages(*d, in, &o1, &o2)) << "trial " << trial;
+      check(trial, *d, in, o1, o2);
+    }
+  }
+
   IdInput Slippery(std::array<bool, 4> stance) {
     std::uniform_real_distribution<double> u(-1.0, 1.0), mu(0.05, 0.3);
     IdInput in = Consistent(stance, 3.0);
@@ -244,33 +260,26 @@ TEST_F(TwoStage, StageTwoKeepsEnergyAndNeverRaisesTorque) {
   EXPECT_GT(strictly_lower, 0);
 }
 
-constexpr std::array<std::array<bool, 4>, 3> kSlipperyStances{
-    kAll, std::array<bool, 4>{true, true, false, true}, kLfRh};
-
 TEST_F(TwoStage, StageTwoStaysInStageOnesOptimalSetOnSlidingContacts) {
   // (9): Stage II may only choose among Stage I's minimisers. Along null(R_b) the Stage I
   // objective changes by the work of the redistributed impulses on the contact velocities,
   // which is not zero for contacts that slide or separate. Checked with the objective rebuilt
   // from the dynamics (StageOneObjectiveAt), at Stage I's and at Stage II's impulses.
-  rng_.seed(16);
   int sliding = 0, separating = 0, off = 0;
   double worst = 0.0;
-  for (int trial = 0; trial < 40; ++trial) {
-    const IdInput in = Slippery(kSlipperyStances[trial % 3]);
-    const auto d = Dyn(in);
-    IdOutput o1, o2;
-    ASSERT_NO_FATAL_FAILURE(SolveBothStages(*d, in, &o1, &o2)) << "trial " << trial;
-    CountContactModes(*d, in, o1, &sliding, &separating);
+  ForEachSlipperyProblem([&](int trial, const CycleDynamics& d, const IdInput& in,
+                             const IdOutput& o1, const IdOutput& o2) {
+    CountContactModes(d, in, o1, &sliding, &separating);
     double scale1 = 0.0, scale2 = 0.0;
-    const double f1 = StageOneObjectiveAt(*d, in, o1, &scale1);
-    const double f2 = StageOneObjectiveAt(*d, in, o2, &scale2);
+    const double f1 = StageOneObjectiveAt(d, in, o1, &scale1);
+    const double f2 = StageOneObjectiveAt(d, in, o2, &scale2);
     const double tol = 1e-8 * std::max(scale1, scale2);
     // the test's objective is the one Stage I minimised
     EXPECT_NEAR(o1.stage1.objective, f1, tol) << "trial " << trial;
     EXPECT_NEAR(f2, f1, tol) << "trial " << trial << ": Stage II left Stage I's optimum";
     if (std::abs(f2 - f1) > tol) ++off;
     worst = std::max(worst, f2 - f1);
-  }
+  });
   std::printf("%d sliding and %d separating contacts; Stage II off Stage I's optimum in %d of 40, "
               "worst by %.3g J\n", sliding, separating, off, worst);
   EXPECT_GT(sliding, 10);
@@ -280,17 +289,13 @@ TEST_F(TwoStage, StageTwoStaysInStageOnesOptimalSetOnSlidingContacts) {
 TEST_F(TwoStage, StageTwoTorqueReproducesJointVelocitiesOnSlidingContacts) {
   // τ fed back through the forward contact model (ForwardContactStep, nothing of the ID) must
   // give the joints v*_q = q̇ + h q̈_des (5), for Stage II's torque as for Stage I's.
-  rng_.seed(16);
   double worst1 = 0.0, worst2 = 0.0;
   int missed = 0;
-  for (int trial = 0; trial < 40; ++trial) {
-    const IdInput in = Slippery(kSlipperyStances[trial % 3]);
-    const auto d = Dyn(in);
-    IdOutput o1, o2;
-    ASSERT_NO_FATAL_FAILURE(SolveBothStages(*d, in, &o1, &o2)) << "trial " << trial;
+  ForEachSlipperyProblem([&](int trial, const CycleDynamics& d, const IdInput& in,
+                             const IdOutput& o1, const IdOutput& o2) {
     const VectorJ vq = in.v.tail<12>() + in.dt * in.qdd_des;
-    const VectorV v1 = ForwardContactStep(*d, in, o1.tau_Nm);
-    const VectorV v2 = ForwardContactStep(*d, in, o2.tau_Nm);
+    const VectorV v1 = ForwardContactStep(d, in, o1.tau_Nm);
+    const VectorV v2 = ForwardContactStep(d, in, o2.tau_Nm);
     ASSERT_TRUE(v1.allFinite() && v2.allFinite()) << "trial " << trial;
     const double e1 = (v1.tail<12>() - vq).lpNorm<Eigen::Infinity>();
     const double e2 = (v2.tail<12>() - vq).lpNorm<Eigen::Infinity>();
@@ -299,7 +304,7 @@ TEST_F(TwoStage, StageTwoTorqueReproducesJointVelocitiesOnSlidingContacts) {
     if (e2 >= 1e-5) ++missed;
     worst1 = std::max(worst1, e1);
     worst2 = std::max(worst2, e2);
-  }
+  });
   std::printf("forward model, largest |v*_q - (qd + h qdd_des)|: Stage I %.3g rad/s, "
               "Stage II %.3g rad/s (missed 1e-5 in %d of 40)\n", worst1, worst2, missed);
 }
