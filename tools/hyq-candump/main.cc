@@ -57,7 +57,7 @@ int Record(hyq::hal::CanChannel& ch, const std::string& out_path, const std::str
   std::vector<hyq::hal::CanFrame> buf(256);
   const std::int64_t end =
       seconds > 0 ? MonotonicNs() + static_cast<std::int64_t>(seconds * 1e9) : INT64_MAX;
-  long recorded = 0;
+  long recorded = 0, unwritten = 0;
   const int fd = ch.poll_fd();
   while (g_stop == 0 && (count <= 0 || recorded < count) && MonotonicNs() < end) {
     std::size_t n = 0;
@@ -68,9 +68,9 @@ int Record(hyq::hal::CanChannel& ch, const std::string& out_path, const std::str
       return 1;
     }
     for (std::size_t i = 0; i < n && (count <= 0 || recorded < count); ++i, ++recorded)
-      (void)writer.Write(buf[i]);
+      unwritten += writer.Write(buf[i]) ? 0 : 1;
     if (n > 0) {
-      writer.Flush();
+      unwritten += writer.Flush() ? 0 : 1;
     } else if (fd >= 0) {
       pollfd p{fd, POLLIN, 0};
       (void)poll(&p, 1, 100);  // wakes for data, and every 100 ms to check stop/timeout
@@ -78,7 +78,7 @@ int Record(hyq::hal::CanChannel& ch, const std::string& out_path, const std::str
       SleepUs(200);
     }
   }
-  writer.Flush();
+  unwritten += writer.Flush() ? 0 : 1;
   const auto& c = ch.counters();
   std::fprintf(stderr,
                "hyq-candump: %ld frames recorded; rx %llu, overflow %llu, error frames %llu, "
@@ -87,6 +87,11 @@ int Record(hyq::hal::CanChannel& ch, const std::string& out_path, const std::str
                static_cast<unsigned long long>(c.rx_overflow),
                static_cast<unsigned long long>(c.error_frames),
                static_cast<unsigned long long>(c.bad_frames));
+  if (unwritten > 0) {  // a full disk (or /dev/full): the log is incomplete, not a success
+    std::fprintf(stderr, "hyq-candump: %s: %ld write(s) failed: the log is incomplete\n",
+                 out_path.empty() ? "-" : out_path.c_str(), unwritten);
+    return 1;
+  }
   return 0;
 }
 

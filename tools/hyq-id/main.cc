@@ -139,5 +139,12 @@ int main(int argc, char** argv) {
   const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   std::fprintf(stderr, "%shyq-id: %ld solved (%ld fell back), %ld bad line(s), %.3f s\n",
                solved >= 10000 ? "\n" : "", solved, fallbacks, bad, s);
+  // a full disk (or /dev/full) must not pass for success: the results are lost
+  out.flush();
+  if (!out) {
+    std::fprintf(stderr, "hyq-id: %s: writing the results failed (disk full or an I/O error)\n",
+                 out_path.c_str());
+    return 2;
+  }
   return (bad > 0 || fallbacks > 0) ? 1 : 0;
 }
