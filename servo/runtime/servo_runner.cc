@@ -5,6 +5,7 @@
 #include <algorithm>
 
 #include "hal/clock.h"
+#include "hal/config_error.h"
 #include "hal/protocol.h"
 #include "servo/runtime/realtime_thread.h"
 
@@ -45,10 +46,14 @@ bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channe
 }
 
 std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
-                     std::span<LockstepChannel* const> channels) {
+                     std::span<LockstepChannel* const> channels,
+                     const std::function<bool()>& abort) {
   const auto period = static_cast<std::int64_t>(config.period_s() * 1e9);
   std::int64_t now = config.clock == ClockMode::kLockstep ? 0 : MonotonicNs();
   hal::RunBringUp(hal, hal::DeviceState::kOp, now, [&] {
+    if (abort && abort())
+      throw hal::ConfigError("bring-up aborted by a stop request (SIGINT/SIGTERM) before every "
+                             "device reached OP: " + hal.BringUpReport(now));
     if (config.clock == ClockMode::kLockstep) {
       // devices that owe no TPDO yet answer NMT commands: give them a moment of wall time
       (void)WaitForInputs(hal, channels, 200'000'000, 20'000'000);

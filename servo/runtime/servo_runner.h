@@ -11,6 +11,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -34,9 +35,11 @@ bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channe
 
 /// Brings every device to OP with the configured clock (throws hal::ConfigError with the HAL's
 /// report on timeout); returns the time of the last bring-up cycle. `channels` is empty in real
-/// time.
+/// time. `abort` (may be empty) is asked every cycle: true ends the bring-up at once with a
+/// hal::ConfigError saying so (an operator's SIGTERM must not wait for the bring-up timeout).
 std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
-                     std::span<LockstepChannel* const> channels);
+                     std::span<LockstepChannel* const> channels,
+                     const std::function<bool()>& abort = {});
 
 /// Runs the loop until loop.finished(). Real time: from `start_ns`; lock-step: virtual time from
 /// `start_ns`, waiting on `channels`.

@@ -329,10 +329,20 @@ int main(int argc, char** argv) {
   // (lock-step: the boards run on the simulator's virtual time, which stands still between
   // SYNCs, so the bring-up stays where it was, before the servo thread's set-up)
   const bool lockstep_clock = config.clock == hyq::servo::ClockMode::kLockstep;
+  // SIGINT / SIGTERM are blocked in every thread (the main loop takes them with sigtimedwait):
+  // during the bring-up, a pending one ends it at once instead of after the bring-up timeout
+  std::atomic<bool> stop_signalled{false};  // the main loop took SIGINT / SIGTERM
+  const auto stop_pending = [&stop_signalled] {
+    if (stop_signalled.load()) return true;
+    sigset_t pending;
+    sigemptyset(&pending);
+    return sigpending(&pending) == 0 &&
+           (sigismember(&pending, SIGINT) == 1 || sigismember(&pending, SIGTERM) == 1);
+  };
   std::int64_t start_ns = 0;
   if (lockstep_clock) {
     try {
-      start_ns = hyq::servo::BringUp(*hal, config, lockstep);
+      start_ns = hyq::servo::BringUp(*hal, config, lockstep, stop_pending);
     } catch (const std::exception& e) {
       if (telemetry) telemetry->Stop();
       std::fprintf(stderr, "hyq-servod: bring-up failed: %s\n", e.what());
@@ -344,7 +354,7 @@ int main(int argc, char** argv) {
     rt_ready.store(true, std::memory_order_release);
     if (!lockstep_clock) {
       try {
-        start_ns = hyq::servo::BringUp(*hal, config, lockstep);
+        start_ns = hyq::servo::BringUp(*hal, config, lockstep, stop_pending);
       } catch (const std::exception& e) {
         bringup_error = e.what();
         servo_done.store(true, std::memory_order_release);
@@ -366,6 +376,7 @@ int main(int argc, char** argv) {
     const int sig = sigtimedwait(&signals, nullptr, &wait);
     if (sig == SIGINT || sig == SIGTERM) {
       if (!opt.quiet) std::fprintf(stderr, "hyq-servod: %s: controlled stop\n", strsignal(sig));
+      stop_signalled.store(true);
       loop->RequestStop();
     }
     if (!warned && rt_ready.load(std::memory_order_acquire)) {  // the servo thread is set up

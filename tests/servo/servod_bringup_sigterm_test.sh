@@ -1,0 +1,29 @@
+#!/usr/bin/env bash
+# SIGTERM during the bring-up ends it at once (exit 1, the HAL's report), in lock-step and in
+# real time, instead of after the bring-up timeout: no devices answer here, so the bring-up could
+# only end by its timeout otherwise. Runs inside tests/drivers/in_netns.sh (multicast buses).
+#   servod_bringup_sigterm_test.sh HYQ_SERVOD SOURCE_DIR OUT_DIR
+set -uo pipefail
+servod=$1 src=$2 out=$3
+if [[ -z "${HYQ_NETNS:-}" ]]; then
+  echo "servod_bringup_sigterm: SKIP: needs a private network namespace (tests/drivers/in_netns.sh)"
+  exit 77
+fi
+mkdir -p "$out"
+for clock in lockstep realtime; do
+  "$servod" --config "$src/config/hyq_servo_sim.yaml" --clock "$clock" --no-telemetry --quiet \
+    2>"$out/$clock.log" &
+  pid=$!
+  sleep 0.5
+  start=$(date +%s%N)
+  kill -TERM "$pid"
+  wait "$pid"
+  rc=$?
+  ms=$(( ($(date +%s%N) - start) / 1000000 ))
+  echo "servod_bringup_sigterm: $clock: exit $rc, $ms ms after SIGTERM"
+  [[ $rc -eq 1 ]] || { cat "$out/$clock.log"; echo "FAIL: expected exit 1" >&2; exit 1; }
+  ((ms < 2000)) || { echo "FAIL: the stop took $ms ms (the bring-up timeout is 3 s)" >&2; exit 1; }
+  grep -q "bring-up aborted by a stop request" "$out/$clock.log" ||
+    { cat "$out/$clock.log"; echo "FAIL: no message naming the stop request" >&2; exit 1; }
+done
+echo "servod_bringup_sigterm: PASS"
