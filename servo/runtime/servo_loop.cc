@@ -58,7 +58,9 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
       controller_(std::make_unique<Controller>(model, config.controller)),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
-      base_gains_(config.controller.feedback) {
+      base_gains_(config.controller.feedback),
+      command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
+                       config.safety.damp_on_bad_command} {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
   reference_->Sample(0.0, &ref_);
   joint_ref_ = ref_.joints;
@@ -86,7 +88,8 @@ void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexc
   est_status_ = estimator_.Update(hal_.image(), ref_.joints.stance); clock.Mark(&timing_.estimate_ns);
   SampleReference();                                                 clock.Mark(&timing_.reference_ns);
   RunController();                                                   clock.Mark(&timing_.control_ns);
-  const SafetyDecision decision = safety_.Decide(AllDown(hal_));
+  const SafetyDecision decision =
+      safety_.Decide(safety_.mode() == ServoMode::kStopped && AllDown(hal_));
   ApplyDecision(decision, now_ns);                                   clock.Mark(&timing_.safety_ns);
   const hal::HalStatus ws = hal_.Write(now_ns);
   SpinInjectedOverrun();                                             clock.Mark(&timing_.write_ns);
@@ -101,11 +104,9 @@ void ServoLoop::BeginCycle(std::int64_t now_ns) noexcept {
 
 // operator commands (a few per cycle at most), auto-enable, then a stop request
 void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
-  const CommandTargets targets{&safety_, controller_.get(), &env_, &base_gains_,
-                               &config_.controller.pid, config_.safety.damp_on_bad_command};
   ServoCommand cmd;
   for (int i = 0; i < 4 && sink_ != nullptr && sink_->PopCommand(&cmd); ++i) {
-    switch (ApplyCommand(cmd, est_status_, targets)) {
+    switch (ApplyCommand(cmd, est_status_, command_targets_)) {
       case CommandOutcome::kRejected:
         ++stats_.commands_rejected;
         continue;
@@ -128,7 +129,9 @@ void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
 void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
   const Fault input_fault = checker_.Check(hal_, read_status, safety_.expects_devices_in_op());
   safety_.Report(input_fault);
-  safety_.Update({.inputs_ok = !input_fault, .devices_in_op = hal_.AllIn(hal::DeviceState::kOp)});
+  // the device scan only matters while an acknowledgement waits for the devices
+  if (safety_.acknowledge_pending())
+    safety_.Update({.inputs_ok = !input_fault, .devices_in_op = hal_.AllIn(hal::DeviceState::kOp)});
 }
 
 void ServoLoop::EnterActive() noexcept {

@@ -19,6 +19,7 @@
 #include "servo/control/controller.h"
 #include "servo/estimation/estimator.h"
 #include "servo/reference/reference.h"
+#include "servo/runtime/command_rules.h"
 #include "servo/runtime/deadline_monitor.h"
 #include "servo/runtime/input_checker.h"
 #include "servo/runtime/latency_histogram.h"
@@ -134,6 +135,7 @@ class ServoLoop {
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
   ContactEnvironment env_;
   FeedbackGains base_gains_;
+  CommandTargets command_targets_;  // what a command may change (built once)
   ReferenceSample ref_;
   JointReference joint_ref_;  // after the enable ramp
   IdOutput out_;
