@@ -17,12 +17,25 @@ out=build/tsan/tsan-hil
 mkdir -p "$out"
 cfg="$PWD/build/tsan/tsan_servo.yaml"
 sed -e "s|^  urdf: .*|  urdf: $PWD/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $PWD/config/hyq_hal.yaml|" \
-  config/hyq_servo_sim.yaml > "$cfg"
+  -e "s|^    time_budget_us: .*|    time_budget_us: 5000|" config/hyq_servo_sim.yaml > "$cfg"
 printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$cfg"
+# This run looks for races, not for tracking: on a slow 2-core machine the TSan build can miss
+# hundreds of cycles in a row and the safety then stops the robot on a fault (exit 3), which is
+# the daemon doing its job. Exit 66 is TSan's own; anything else (a crash, a signal) fails.
+set +e
 TSAN_OPTIONS="halt_on_error=0 exitcode=66" scripts/hil.sh --build "$release" \
   --servod-bin build/tsan/tools/hyq-servod/hyq-servod --out "$out" --duration 3 --quiet \
   --servod-arg --config --servod-arg "$cfg" --servod-arg --commands
-if grep -q "WARNING: ThreadSanitizer" "$out/servod.log"; then
+rc=$?
+set -e
+case "$rc" in
+  0) ;;
+  3) echo "tsan_check: note: the TSan daemon stopped on a fault (exit 3; too slow for the trot under TSan), its threads ran until then" ;;
+  4) echo "tsan_check: note: the robot fell under the TSan daemon (too slow for the trot under TSan)" ;;
+  66) echo "tsan_check: FAIL: ThreadSanitizer exit code 66" >&2 ;;
+  *) echo "tsan_check: FAIL: hil.sh exited $rc (see $out/servod.log)" >&2; exit 1 ;;
+esac
+if [[ "$rc" == 66 ]] || grep -q "WARNING: ThreadSanitizer" "$out/servod.log"; then
   grep -A20 "WARNING: ThreadSanitizer" "$out/servod.log" | head -60
   echo "tsan_check: FAIL: ThreadSanitizer reports in $out/servod.log" >&2
   exit 1
