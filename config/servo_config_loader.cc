@@ -14,6 +14,8 @@
 #include "config/hal_config_loader.h"
 #include "config/yaml_reader.h"
 #include "hal/config_error.h"
+#include "servo/telemetry/command_channel.h"
+#include "servo/telemetry/lcm_url.h"
 
 namespace hyq::config {
 namespace {
@@ -206,7 +208,8 @@ void ReadReference(const Reader& r, const YAML::Node& root, servo::ServoConfig& 
   }
 }
 
-void ReadRest(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
+void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::path& base_dir,
+              servo::ServoConfig& c) {
   {
     const YAML::Node n = Section(r, root, "realtime");
     const std::string p = "realtime";
@@ -268,12 +271,18 @@ void ReadRest(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
     auto& s = c.telemetry;
     s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
     s.lcm_url = StringOr(r, n, p, "lcm_url", s.lcm_url);
-    const std::string scheme = s.lcm_url.substr(0, s.lcm_url.find("://"));
-    if (s.lcm_url.find("://") == std::string::npos ||
-        (scheme != "udpm" && scheme != "memq" && scheme != "file"))
-      r.Fail(n["lcm_url"], "telemetry.lcm_url",
-             "an LCM URL udpm://GROUP:PORT?ttl=N, memq:// or file://", "'" + s.lcm_url + "'");
+    try {
+      (void)servo::ParseLcmUrl(s.lcm_url, "telemetry.lcm_url");
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      const std::size_t at = what.find(": expected ");
+      r.Fail(n["lcm_url"], what.substr(0, at), what.substr(at + 11, what.rfind(", found ") - at - 11),
+             "'" + s.lcm_url + "'");
+    }
     s.channel_prefix = StringOr(r, n, p, "channel_prefix", s.channel_prefix);
+    if (!servo::IsPlainChannelName(s.channel_prefix + "X"))
+      r.Fail(n["channel_prefix"], "telemetry.channel_prefix", "[A-Za-z0-9_]* (no regular expression)",
+             "'" + s.channel_prefix + "'");
     // every N cycles (0 = never)
     const auto every = [&](const char* key, std::uint32_t d) {
       return static_cast<std::uint32_t>(BoundedInt(r, n, p, key, static_cast<int>(d), 0, 100000));
@@ -299,11 +308,27 @@ void ReadRest(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
   {
     const YAML::Node n = Section(r, root, "commands");
     const std::string p = "commands";
-    r.Keys(n, p, {"enabled", "channel", "max_rate_hz", "mu_min", "mu_max", "gain_scale_min",
-                  "gain_scale_max", "allowed_controllers"});
+    r.Keys(n, p, {"enabled", "channel", "key_file", "max_age_ms", "max_senders", "interface",
+                  "max_rate_hz", "mu_min", "mu_max", "gain_scale_min", "gain_scale_max",
+                  "allowed_controllers"});
     auto& s = c.commands;
     s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
     s.channel = StringOr(r, n, p, "channel", s.channel);
+    if (!servo::IsPlainChannelName(s.channel))
+      r.Fail(n["channel"], "commands.channel",
+             "a plain channel name [A-Za-z0-9_]+ (LCM reads a pattern as a regular expression)",
+             "'" + s.channel + "'");
+    if (s.channel.rfind(c.telemetry.channel_prefix, 0) == 0)
+      for (const char* suffix : {"JOINT_STATE", "JOINT_TORQUE", "BASE_STATE", "CONTACT", "TIMING",
+                                 "HEALTH", "EVENT"})
+        if (s.channel == c.telemetry.channel_prefix + suffix)
+          r.Fail(n["channel"], "commands.channel", "a channel the telemetry does not publish on",
+                 "'" + s.channel + "'");
+    if (n["key_file"].IsDefined()) s.key_file = Resolve(base_dir, StringOr(r, n, p, "key_file", s.key_file));
+    s.max_age_ms = Bounded(r, n, p, "max_age_ms", s.max_age_ms, 1.0, 60000.0);
+    s.max_senders = static_cast<std::size_t>(
+        BoundedInt(r, n, p, "max_senders", static_cast<int>(s.max_senders), 1, 1024));
+    s.interface = StringOr(r, n, p, "interface", s.interface);
     s.max_rate_hz = Bounded(r, n, p, "max_rate_hz", s.max_rate_hz, 0.1, 1000.0);
     s.mu_min = Bounded(r, n, p, "mu_min", s.mu_min, 0.0, 10.0);
     s.mu_max = Bounded(r, n, p, "mu_max", s.mu_max, 0.0, 10.0);
@@ -371,7 +396,7 @@ servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
   r.Keys(op, "operation", {"auto_enable"});
   c.auto_enable = BoolOr(r, op, "operation", "auto_enable", c.auto_enable);
 
-  ReadRest(r, root, c);
+  ReadRest(r, root, base_dir, c);
 
   // the HAL file, then the interface overrides of this file
   c.hal = LoadHalConfig(c.hal_file);

@@ -10,7 +10,7 @@ readonly PACKAGES=(
   # toolchain
   build-essential cmake ninja-build pkg-config clang libclang-rt-14-dev
   # libraries
-  libeigen3-dev liburdfdom-dev liburdfdom-headers-dev libtinyxml2-dev libyaml-cpp-dev nlohmann-json3-dev
+  libeigen3-dev liburdfdom-dev liburdfdom-headers-dev libtinyxml2-dev libyaml-cpp-dev nlohmann-json3-dev libssl-dev
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libgl-dev libqhull-dev
   liblcm-dev liblcm-bin liblcm-java libglib2.0-dev default-jdk-headless libjchart2d-java

@@ -19,13 +19,16 @@ cfg="$PWD/build/tsan/tsan_servo.yaml"
 sed -e "s|^  urdf: .*|  urdf: $PWD/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $PWD/config/hyq_hal.yaml|" \
   -e "s|^    time_budget_us: .*|    time_budget_us: 5000|" config/hyq_servo_sim.yaml > "$cfg"
 printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$cfg"
+rm -f "$out/command.key"
+"$release/tools/hyq-command/hyq-command" --generate-key "$out/command.key" >/dev/null
 # This run looks for races, not for tracking: on a slow 2-core machine the TSan build can miss
 # hundreds of cycles in a row and the safety then stops the robot on a fault (exit 3), which is
 # the daemon doing its job. Exit 66 is TSan's own; anything else (a crash, a signal) fails.
 set +e
 TSAN_OPTIONS="halt_on_error=0 exitcode=66" scripts/hil.sh --build "$release" \
   --servod-bin build/tsan/tools/hyq-servod/hyq-servod --out "$out" --duration 3 --quiet \
-  --servod-arg --config --servod-arg "$cfg" --servod-arg --commands
+  --servod-arg --config --servod-arg "$cfg" --servod-arg --commands \
+  --servod-arg --command-key --servod-arg "$out/command.key"
 rc=$?
 set -e
 case "$rc" in

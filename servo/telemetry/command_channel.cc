@@ -79,8 +79,26 @@ void CommandValidator::CheckRanges(const CommandChannelConfig& c) {
   if (!(c.gain_scale_min <= c.gain_scale_max) || !(c.gain_scale_min > 0.0))
     throw std::invalid_argument(
         "CommandChannelConfig gain scale range: expected 0 < gain_scale_min <= gain_scale_max");
-  if (c.channel.empty())
-    throw std::invalid_argument("CommandChannelConfig.channel: expected a name, found none");
+  if (!IsPlainChannelName(c.channel))
+    throw std::invalid_argument("CommandChannelConfig.channel: expected a plain channel name "
+                                "([A-Za-z0-9_]+; LCM would read a pattern as a regular expression), "
+                                "found '" + c.channel + "'");
+  if (!(c.max_age_ms >= 1.0 && c.max_age_ms <= 60000.0))
+    throw std::invalid_argument("CommandChannelConfig.max_age_ms: expected 1..60000, found " +
+                                std::to_string(c.max_age_ms));
+  if (c.max_senders < 1 || c.max_senders > 1024)
+    throw std::invalid_argument("CommandChannelConfig.max_senders: expected 1..1024, found " +
+                                std::to_string(c.max_senders));
+}
+
+bool IsPlainChannelName(const std::string& name) noexcept {
+  if (name.empty() || name.size() > 63) return false;
+  for (const char ch : name) {
+    const bool ok = (ch >= 'A' && ch <= 'Z') || (ch >= 'a' && ch <= 'z') || (ch >= '0' && ch <= '9') ||
+                    ch == '_';
+    if (!ok) return false;
+  }
+  return true;
 }
 
 bool CommandValidator::Validate(const hyq_lcm::lcmt_hyq_command& msg, ServoCommand* out,

@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cstddef>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
@@ -21,6 +22,10 @@ namespace hyq::servo {
 /// decoder throws std::length_error on a negative count).
 bool DecodeCommand(const void* data, std::size_t size, hyq_lcm::lcmt_hyq_command* msg, char* why,
                    std::size_t why_size) noexcept;
+
+/// A channel name liblcm will not read as a regular expression when subscribing: 1..63 of
+/// [A-Za-z0-9_] (a pattern like "HYQ_.*" would make the daemon hear its own telemetry).
+bool IsPlainChannelName(const std::string& name) noexcept;
 
 class CommandValidator {
  public:

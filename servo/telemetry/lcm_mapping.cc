@@ -126,6 +126,8 @@ void ToLcm(const TelemetrySnapshot& s, const TelemetryStats& st, hyq_lcm::lcmt_h
   m.commands_accepted = static_cast<std::int64_t>(st.commands_accepted);
   m.commands_rejected = static_cast<std::int64_t>(st.commands_rejected);
   m.commands_dropped = static_cast<std::int64_t>(st.commands_dropped);
+  m.commands_unauthenticated = static_cast<std::int64_t>(st.commands_unauthenticated);
+  m.commands_replayed = static_cast<std::int64_t>(st.commands_replayed);
 }
 
 void ToLcm(const SafetyEvent& e, hyq_lcm::lcmt_hyq_event* out) {

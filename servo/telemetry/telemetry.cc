@@ -15,8 +15,10 @@
 
 #include <lcm/lcm-cpp.hpp>
 
+#include "servo/telemetry/command_auth.h"
 #include "servo/telemetry/command_channel.h"
 #include "servo/telemetry/lcm_mapping.h"
+#include "servo/telemetry/lcm_url.h"
 #include "servo/telemetry/spsc_ring.h"
 
 namespace hyq::servo {
@@ -33,16 +35,26 @@ void CheckCapacity(const char* name, std::size_t n) {
                                 ": expected a power of two >= 2, found " + std::to_string(n));
 }
 
+// The command channel's authenticator: the key is read (and its file's owner and mode checked)
+// only when the channel is enabled.
+CommandAuthenticator MakeAuthenticator(const CommandChannelConfig& c) {
+  CommandAuthConfig a;
+  a.max_age = std::chrono::milliseconds(static_cast<std::int64_t>(c.max_age_ms));
+  a.max_senders = c.max_senders;
+  return CommandAuthenticator(c.enabled ? LoadCommandKey(c.key_file) : CommandKey{}, a);
+}
+
 }  // namespace
 
 struct Telemetry::Impl {
   Impl(const TelemetryConfig& c, const CommandChannelConfig& cc, PublishFn p)
-      : config(c), validator(cc), publish_override(std::move(p)),
+      : config(c), validator(cc), auth(MakeAuthenticator(cc)), publish_override(std::move(p)),
         snapshots(c.snapshot_queue_capacity), events(c.event_queue_capacity),
         commands(c.command_queue_capacity) {}
 
   const TelemetryConfig config;
   CommandValidator validator;  // decode, validate and rate-limit (telemetry thread)
+  CommandAuthenticator auth;   // MAC, freshness and sequence before anything is decoded
   PublishFn publish_override;
   std::unique_ptr<lcm::LCM> lcm;
   lcm::Subscription* subscription = nullptr;
@@ -55,7 +67,11 @@ struct Telemetry::Impl {
   std::atomic<std::uint64_t> events_pushed{0}, events_dropped{0}, events_published{0};
   std::atomic<std::uint64_t> messages_published{0}, publish_failures{0};
   std::atomic<std::uint64_t> commands_received{0}, commands_accepted{0}, commands_rejected{0};
-  std::atomic<std::uint64_t> commands_dropped{0};
+  std::atomic<std::uint64_t> commands_dropped{0}, commands_unauthenticated{0}, commands_replayed{0};
+  // refusals of unauthenticated datagrams are evented at most every 100 ms (a flood of them must
+  // not flood HYQ_EVENT); the ones in between are counted and the next event says "(+N more)"
+  std::chrono::steady_clock::time_point last_auth_event{};
+  std::uint64_t auth_events_suppressed = 0;
 
   std::thread thread;
   std::atomic<bool> stop{false};
@@ -97,6 +113,7 @@ struct Telemetry::Impl {
   void Publish(const std::string& channel, const M& msg);
   void OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
   void Reject(std::int64_t sequence, const char* why);
+  void RejectUnauthenticated(const char* why);
   void TellServoInvalid(std::int64_t sequence);
 };
 
@@ -114,6 +131,17 @@ Telemetry::Telemetry(const TelemetryConfig& config, const CommandChannelConfig& 
     throw std::runtime_error("Telemetry: cannot create LCM on '" + config.lcm_url +
                              "' (for udpm, is there a multicast route, e.g. 224.0.0.0/4 dev lo?)");
   if (commands.enabled) {
+    // liblcm joins the group on whatever interface the route picks: refuse to listen for
+    // commands anywhere but where configured (the robot's LAN is not the operator's network)
+    const LcmUrl url = ParseLcmUrl(config.lcm_url, "telemetry.lcm_url");
+    if (url.provider == "udpm" && !commands.interface.empty()) {
+      const std::string via = InterfaceForGroup(url.group, url.port);
+      if (via != commands.interface)
+        throw std::invalid_argument("commands.interface: expected the route to " + url.group +
+                                    " to use '" + commands.interface + "', found '" + via +
+                                    "' (e.g. ip route add 224.0.0.0/4 dev " + commands.interface +
+                                    ", or set commands.interface)");
+    }
     m.subscription = m.lcm->subscribe(commands.channel, &Impl::OnCommand, &m);
     if (m.subscription == nullptr)
       throw std::runtime_error("Telemetry: cannot subscribe to '" + commands.channel + "'");
@@ -199,6 +227,8 @@ TelemetryStats Telemetry::Impl::Stats() const noexcept {
   s.commands_accepted = load(commands_accepted);
   s.commands_rejected = load(commands_rejected);
   s.commands_dropped = load(commands_dropped);
+  s.commands_unauthenticated = load(commands_unauthenticated);
+  s.commands_replayed = load(commands_replayed);
   return s;
 }
 
@@ -328,14 +358,53 @@ void Telemetry::Impl::Reject(std::int64_t sequence, const char* why) {
   events_published.fetch_add(1, std::memory_order_relaxed);
 }
 
+// Only an authentic, fresh command can reach the servo, even as a refusal: a datagram that is not
+// (unsigned, wrong key, stale, replayed) is refused with an event and counted, and the servo never
+// hears of it, so that nobody without the key can stop the robot either.
+void Telemetry::Impl::RejectUnauthenticated(const char* why) {
+  const auto now = std::chrono::steady_clock::now();
+  if (last_auth_event != std::chrono::steady_clock::time_point{} &&
+      now - last_auth_event < std::chrono::milliseconds(100)) {
+    commands_rejected.fetch_add(1, std::memory_order_relaxed);
+    ++auth_events_suppressed;
+    return;
+  }
+  // the count goes last and must survive the event's fixed size ("seq -1: " comes first)
+  char more[32] = "";
+  if (auth_events_suppressed > 0)
+    std::snprintf(more, sizeof more, " (+%llu more)",
+                  static_cast<unsigned long long>(auth_events_suppressed));
+  char detail[kEventDetailSize];
+  const int room = static_cast<int>(kEventDetailSize) - 9 - static_cast<int>(std::strlen(more));
+  std::snprintf(detail, sizeof detail, "%.*s%s", room, why, more);
+  auth_events_suppressed = 0;
+  last_auth_event = now;
+  Reject(-1, detail);  // counts it
+}
+
 void Telemetry::Impl::OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string& /*channel*/) {
   commands_received.fetch_add(1, std::memory_order_relaxed);
   char why[kEventDetailSize];
   hyq_lcm::lcmt_hyq_command msg;
-  if (!DecodeCommand(rbuf->data, rbuf->data_size, &msg, why, sizeof why)) {
-    TellServoInvalid(-1);  // first: whoever sees the refusal event finds the servo told already
-    Reject(-1, why);
-    return;
+  const std::int64_t now_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                                  std::chrono::system_clock::now().time_since_epoch())
+                                  .count();
+  switch (auth.Check(rbuf->data, rbuf->data_size, now_us, &msg, why, sizeof why)) {
+    case AuthVerdict::kOk:
+      break;
+    case AuthVerdict::kUndecodable:  // the key holder sent garbage: that is a bad command
+      TellServoInvalid(-1);
+      Reject(-1, why);
+      return;
+    case AuthVerdict::kStale:
+    case AuthVerdict::kReplayed:
+      commands_replayed.fetch_add(1, std::memory_order_relaxed);
+      RejectUnauthenticated(why);
+      return;
+    default:
+      commands_unauthenticated.fetch_add(1, std::memory_order_relaxed);
+      RejectUnauthenticated(why);
+      return;
   }
   ServoCommand command;
   if (!validator.Validate(msg, &command, why, sizeof why)) {

@@ -31,11 +31,17 @@ struct TelemetryConfig {
   int idle_wait_ms = 1;                  // the thread's wait when there is nothing to do
 };
 
-/// The operator command channel (lcmt_hyq_command). Off unless enabled; when off, no
-/// subscription exists at all.
+/// The operator command channel (lcmt_hyq_signed_command carrying an lcmt_hyq_command; see
+/// docs/security.md). Off unless enabled; when off, no subscription exists at all.
 struct CommandChannelConfig {
   bool enabled = false;
   std::string channel = "HYQ_COMMAND";
+  std::string key_file = "/etc/hyq/command.key";  // the robot's key (hyq-command --generate-key)
+  double max_age_ms = 1000.0;            // a command's utime within this of the robot's clock
+  std::size_t max_senders = 16;          // distinct senders whose last sequence is remembered
+  /// The interface the command group must be joined on (the routing table decides it for liblcm);
+  /// a different one is a start-up error. Empty: not checked.
+  std::string interface = "lo";
   double max_rate_hz = 10.0;             // accepted commands at most this often; faster ones are refused
   double mu_min = 0.0, mu_max = 2.0;     // accepted friction range (inclusive)
   double gain_scale_min = 0.1, gain_scale_max = 2.0;  // accepted kp/kd multipliers (inclusive)
@@ -49,6 +55,8 @@ struct TelemetryStats {
   std::uint64_t messages_published = 0, publish_failures = 0;
   std::uint64_t commands_received = 0, commands_accepted = 0, commands_rejected = 0;
   std::uint64_t commands_dropped = 0;  // valid, but the command queue was full
+  std::uint64_t commands_unauthenticated = 0;  // unsigned, wrong key, altered, malformed envelope
+  std::uint64_t commands_replayed = 0;         // authentic but stale, replayed or out of order
 };
 
 }  // namespace hyq::servo

@@ -19,6 +19,10 @@
 #       real time: the daemon trots, then dies by SIGKILL (no stop, no last frame): every board
 #       drops its set-point on its own timer within 10 ms of its last SYNC / set-point
 #       (docs/can_protocol.md), with no torque left on any joint.
+#   hil_e2e_test.sh BUILD_DIR OUT_DIR commands
+#       lock-step, the command channel on, no auto-enable: the daemon waits in STANDBY. An enable
+#       signed with another key and an unsigned one change nothing; hyq-command with the robot's
+#       key enables, and a damp from it stops the trot (docs/security.md).
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR mainjob
 #       the README's main-job command itself (scripts/run.sh), shortened to 1 s.
 set -uo pipefail
@@ -96,6 +100,43 @@ case "$mode" in
     check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['to'] == 'damping'"
     check_json "s['event_log'][-1]['to'] == 'stopped'"
     decode_log
+    ;;
+  commands)
+    cmd="$build/tools/hyq-command/hyq-command"
+    "$cmd" --generate-key "$out/robot.key" >/dev/null || fail "hyq-command --generate-key"
+    "$cmd" --generate-key "$out/other.key" >/dev/null || fail "hyq-command --generate-key"
+    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
+        -e "s|^  auto_enable: .*|  auto_enable: false|" "$here/config/hyq_servo_sim.yaml" > "$out/servo.yaml"
+    cat > "$out/commands.sh" <<EOS
+#!/bin/bash
+set -u
+ip link set lo up; ip route add 224.0.0.0/4 dev lo
+"$build/tools/hyq-sim/hyq-sim" --mode lockstep --mu 0.1 --summary "$out/sim.json" --quiet 2>"$out/sim.log" &
+sim=\$!
+sleep 0.2
+"$build/tools/hyq-servod/hyq-servod" --config "$out/servo.yaml" --clock lockstep \
+  --reference trot --controller two_stage --mu 0.1 --duration 0 --commands \
+  --command-key "$out/robot.key" --summary "$out/servod.json" 2>"$out/servod.log" &
+servod=\$!
+# wait for STANDBY (its once-a-second progress line), not for a guessed time
+for i in \$(seq 300); do grep -q "^hyq-servod: standby" "$out/servod.log" && break; sleep 0.1; done
+"$cmd" --key "$out/other.key" enable    # another robot's key
+sleep 0.3
+"$cmd" --key "$out/robot.key" --sender op@hil enable
+sleep 1.5
+"$cmd" --key "$out/robot.key" --sender op@hil damp
+sleep 1.5
+kill -TERM \$servod; wait \$servod; rc=\$?
+kill -TERM \$sim; wait \$sim
+exit \$rc
+EOS
+    chmod +x "$out/commands.sh"
+    unshare -n "$out/commands.sh" || { tail -20 "$out/servod.log"; fail "the command run failed"; }
+    check_json "s['command_channel']['unauthenticated'] == 1"
+    check_json "s['command_channel']['accepted'] == 2"
+    check_json "[e['reason'] for e in s['event_log'] if e['from'] == 'standby' and e['to'] == 'active'] == ['enable_command']"
+    check_json "[e['reason'] for e in s['event_log'] if e['from'] == 'active'][0] == 'damping_command'"
+    check_json "s['active_s'] > 0.3 and not [e for e in s['event_log'] if e['reason'] == 'command_rejected']"
     ;;
   kill9)
     # the deadline policy relaxed: this run checks the boards' reaction, not the daemon's timing

@@ -4,6 +4,8 @@
 // ranges (CommandValidator, no LCM instance).
 #include <gtest/gtest.h>
 
+#include <filesystem>
+
 #include <cstring>
 #include <string>
 
@@ -65,6 +67,10 @@ TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
   gain_scale_min: 0.5
   gain_scale_max: 1.5
   allowed_controllers: [pid, two_stage]
+  key_file: keys/robot7.key
+  max_age_ms: 250
+  max_senders: 4
+  interface: eth1
 )");
   const servo::CommandChannelConfig& k = c.commands;
   EXPECT_TRUE(k.enabled);
@@ -75,6 +81,10 @@ TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
   EXPECT_DOUBLE_EQ(k.gain_scale_min, 0.5);
   EXPECT_DOUBLE_EQ(k.gain_scale_max, 1.5);
   EXPECT_EQ(k.allowed_controllers, (std::vector<std::string>{"pid", "two_stage"}));
+  EXPECT_EQ(k.key_file, (std::filesystem::path(kConfigDir) / "keys/robot7.key").lexically_normal().string());
+  EXPECT_DOUBLE_EQ(k.max_age_ms, 250.0);
+  EXPECT_EQ(k.max_senders, 4u);
+  EXPECT_EQ(k.interface, "eth1");
 
   // the loaded ranges are the ones the command rules apply
   const servo::CommandValidator v(k);
@@ -136,6 +146,24 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
   const std::string ctrl = message("commands:\n  allowed_controllers: [pid, warp]\n");
   EXPECT_NE(ctrl.find("commands.allowed_controllers[1]"), std::string::npos) << ctrl;
   EXPECT_NE(ctrl.find("warp"), std::string::npos) << ctrl;
+
+  // finding 8: URLs liblcm would take or fail on late, and channel names it reads as patterns
+  const struct {
+    const char* yaml;
+    const char* message;
+  } bad[] = {
+      {"telemetry:\n  lcm_url: udp::99999\n", "telemetry.lcm_url"},
+      {"telemetry:\n  lcm_url: \"udpm://[[[::\"\n", "telemetry.lcm_url (group)"},
+      {"telemetry:\n  lcm_url: udpm://239.255.76.67:99999\n", "expected 1..65535, found"},
+      {"commands:\n  channel: \"HYQ_.*\"\n", "commands.channel"},
+      {"commands:\n  channel: HYQ_HEALTH\n", "a channel the telemetry does not publish on"},
+      {"telemetry:\n  channel_prefix: \"HYQ.*\"\n", "telemetry.channel_prefix"},
+      {"commands:\n  max_age_ms: 0\n", "commands.max_age_ms"},
+  };
+  for (const auto& b : bad) {
+    const std::string m = message(b.yaml);
+    EXPECT_NE(m.find(b.message), std::string::npos) << b.yaml << " -> " << m;
+  }
 }
 
 }  // namespace

@@ -4,6 +4,7 @@
 #include "servo/telemetry/telemetry.h"
 
 #include <signal.h>
+#include <sys/stat.h>
 #include <spawn.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -28,6 +29,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
+#include "servo/telemetry/command_auth.h"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
@@ -398,6 +400,11 @@ class CommandChannel : public ::testing::Test {
  protected:
   void SetUp() override {
     if (std::getenv("HYQ_NETNS") == nullptr) GTEST_SKIP() << "needs in_netns.sh (multicast)";
+    char tmpl[] = "/tmp/hyq_cmdkey_XXXXXX";
+    key_dir_ = ::mkdtemp(tmpl);
+    key_file_ = key_dir_ + "/command.key";
+    GenerateCommandKey(key_file_);
+    key_ = LoadCommandKey(key_file_);
     sender_ = std::make_unique<lcm::LCM>(kUrl);
     ASSERT_TRUE(sender_->good());
     sender_->subscribe("HYQ_EVENT", &CommandChannel::OnEvent, this);
@@ -405,8 +412,22 @@ class CommandChannel : public ::testing::Test {
   void OnEvent(const lcm::ReceiveBuffer*, const std::string&, const hyq_lcm::lcmt_hyq_event* e) {
     events_.push_back(*e);
   }
+  void TearDown() override {
+    if (!key_dir_.empty()) std::filesystem::remove_all(key_dir_);
+  }
+  // an enabled channel with this fixture's key
+  CommandChannelConfig Enabled() const {
+    CommandChannelConfig c;
+    c.enabled = true;
+    c.key_file = key_file_;
+    return c;
+  }
+  // signed with the robot's key, as hyq-command sends it
   void Send(const hyq_lcm::lcmt_hyq_command& c, const char* channel = "HYQ_COMMAND") {
-    ASSERT_EQ(sender_->publish(channel, &c), 0);
+    SendBytes(SignCommand(key_, "test@fixture", c), channel);
+  }
+  void SendBytes(const std::vector<std::uint8_t>& b, const char* channel = "HYQ_COMMAND") {
+    ASSERT_EQ(sender_->publish(channel, b.data(), static_cast<unsigned>(b.size())), 0);
   }
   // the next rejection event (or an empty one after 3 s)
   hyq_lcm::lcmt_hyq_event NextRejection() {
@@ -433,11 +454,16 @@ class CommandChannel : public ::testing::Test {
   }
   static hyq_lcm::lcmt_hyq_command Command(std::int8_t kind, std::int64_t seq) {
     hyq_lcm::lcmt_hyq_command c{};
+    c.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                  std::chrono::system_clock::now().time_since_epoch())
+                  .count();
     c.kind = kind;
     c.sequence = seq;
     c.kp_scale = c.kd_scale = 1.0;
     return c;
   }
+  std::string key_dir_, key_file_;
+  CommandKey key_;
   std::unique_ptr<lcm::LCM> sender_;
   std::vector<hyq_lcm::lcmt_hyq_event> events_;
 };
@@ -447,8 +473,7 @@ using K = hyq_lcm::lcmt_hyq_command;
 TEST_F(CommandChannel, ValidatesAndRateLimits) {
   TelemetryConfig config;
   config.lcm_url = kUrl;
-  CommandChannelConfig commands;
-  commands.enabled = true;
+  CommandChannelConfig commands = Enabled();
   commands.max_rate_hz = 4.0;  // accepted commands at least 250 ms apart
   commands.allowed_controllers = {"two_stage", "pid"};
   Telemetry telemetry(config, commands);
@@ -551,21 +576,20 @@ TEST_F(CommandChannel, ValidatesAndRateLimits) {
 TEST_F(CommandChannel, MalformedDatagramIsRejectedAndTheThreadLivesOn) {
   TelemetryConfig config;
   config.lcm_url = kUrl;
-  CommandChannelConfig commands;
-  commands.enabled = true;
+  CommandChannelConfig commands = Enabled();
   commands.max_rate_hz = 1000.0;
   Telemetry telemetry(config, commands);
   telemetry.Start();
   hyq_lcm::lcmt_hyq_command c = Command(hyq_lcm::lcmt_hyq_command::KIND_ENABLE, 1);
   std::vector<unsigned char> b(static_cast<std::size_t>(c.getEncodedSize()));
   ASSERT_GT(c.encode(b.data(), 0, static_cast<int>(b.size())), 0);
-  b[25] = 0xff;  // num_feet = -1
-  ASSERT_EQ(sender_->publish("HYQ_COMMAND", b.data(), static_cast<unsigned>(b.size())), 0);
+  b[25] = 0xff;  // num_feet = -1, signed by the key holder: authentic, so decoded, and refused
+  SendBytes(SignEncodedCommand(key_, "test@fixture", b.data(), b.size()));
   auto e = NextRejection();
   EXPECT_NE(e.detail.find("num_feet: expected 0.."), std::string::npos) << e.detail;
   b[25] = 0;
   for (int i = 0; i < 4; ++i) b[26 + i] = 0;  // a zero-length string
-  ASSERT_EQ(sender_->publish("HYQ_COMMAND", b.data(), static_cast<unsigned>(b.size())), 0);
+  SendBytes(SignEncodedCommand(key_, "test@fixture", b.data(), b.size()));
   e = NextRejection();
   EXPECT_NE(e.detail.find("controller: expected a string length"), std::string::npos) << e.detail;
   ServoCommand got;
@@ -580,6 +604,90 @@ TEST_F(CommandChannel, MalformedDatagramIsRejectedAndTheThreadLivesOn) {
   EXPECT_EQ(got.sequence, 2u);
   telemetry.Stop();
   EXPECT_EQ(telemetry.stats().commands_rejected, 2u);
+}
+
+// Finding 3: nobody without the key commands the robot, and a captured command does not work
+// twice. Unsigned, wrong-key, replayed and stale datagrams are refused with an event and counted,
+// and none reaches the servo, not even as a refusal (that would let anyone stop the robot). A flood
+// of them gives one event per 100 ms, saying how many were refused in between.
+TEST_F(CommandChannel, UnauthenticatedStaleAndReplayedNeverReachTheServo) {
+  TelemetryConfig config;
+  config.lcm_url = kUrl;
+  CommandChannelConfig commands = Enabled();
+  commands.max_rate_hz = 1000.0;
+  commands.max_age_ms = 1000.0;
+  Telemetry telemetry(config, commands);
+  telemetry.Start();
+
+  // a valid signed enable is taken; the same bytes again (a replay) are not
+  const auto enable = SignCommand(key_, "test@fixture", Command(K::KIND_ENABLE, 1));
+  SendBytes(enable);
+  ServoCommand got;
+  ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
+  EXPECT_EQ(got.kind, ServoCommand::Kind::kEnable);
+  SendBytes(enable);
+  auto e = NextRejection();
+  EXPECT_NE(e.detail.find("sequence: expected > 1, found 1 (replayed"), std::string::npos) << e.detail;
+
+  std::this_thread::sleep_for(150ms);  // past the event limiter
+  // unsigned, as any local process could send it before
+  hyq_lcm::lcmt_hyq_command bare = Command(K::KIND_ENABLE, 2);
+  ASSERT_EQ(sender_->publish("HYQ_COMMAND", &bare), 0);
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("expected a signed command, found an unsigned"), std::string::npos)
+      << e.detail;
+  // then, within 100 ms: another robot's key, a stale command (1.3 s old), garbage
+  CommandKey other = key_;
+  other.bytes[0] ^= 1;
+  SendBytes(SignCommand(other, "test@fixture", Command(K::KIND_ENABLE, 3)));
+  hyq_lcm::lcmt_hyq_command stale = Command(K::KIND_ENABLE, 4);
+  stale.utime -= 1'300'000;
+  Send(stale);
+  SendBytes(std::vector<std::uint8_t>(40, 0xab));
+  std::this_thread::sleep_for(150ms);
+  SendBytes(std::vector<std::uint8_t>(41, 0xab));
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("(+3 more)"), std::string::npos) << e.detail;
+
+  // none of it reached the servo
+  EXPECT_FALSE(PopWithin(&telemetry, &got, 200ms));
+  // and the robot still takes its operator's next command
+  Send(Command(K::KIND_DISABLE, 5));
+  ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
+  EXPECT_EQ(got.kind, ServoCommand::Kind::kDisable);
+  telemetry.Stop();
+  const TelemetryStats st = telemetry.stats();
+  EXPECT_EQ(st.commands_received, 8u);
+  EXPECT_EQ(st.commands_accepted, 2u);
+  EXPECT_EQ(st.commands_rejected, 6u);
+  EXPECT_EQ(st.commands_unauthenticated, 4u);
+  EXPECT_EQ(st.commands_replayed, 2u);
+}
+
+// Finding 3: the command group is joined where the configuration says, and a key file that
+// others can read is a start-up error naming the file.
+TEST_F(CommandChannel, WrongInterfaceOrOpenKeyFileRefusesToStart) {
+  TelemetryConfig config;
+  config.lcm_url = kUrl;
+  CommandChannelConfig commands = Enabled();
+  commands.interface = "eth7";
+  try {
+    Telemetry t(config, commands);
+    ADD_FAILURE() << "expected an error for the interface";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("commands.interface: expected the route to 239.255.76.67 "
+                                         "to use 'eth7', found 'lo'"),
+              std::string::npos) << e.what();
+  }
+  commands.interface = "lo";
+  ASSERT_EQ(::chmod(key_file_.c_str(), 0644), 0);
+  try {
+    Telemetry t(config, commands);
+    ADD_FAILURE() << "expected an error for the key file";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(key_file_ + "': expected mode 0600 or 0400"),
+              std::string::npos) << e.what();
+  }
 }
 
 TEST_F(CommandChannel, DisabledMeansNoSubscription) {

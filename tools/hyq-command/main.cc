@@ -8,17 +8,24 @@
 #include <string_view>
 #include <vector>
 
+#include <unistd.h>
+
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
+#include "servo/telemetry/command_auth.h"
 
 namespace {
 
-constexpr const char* kUsage = R"(usage: hyq-command [--lcm-url URL] [--channel NAME] [--sequence N] COMMAND
+constexpr const char* kUsage = R"(usage: hyq-command [--key FILE] [--sender NAME] [--lcm-url URL] [--channel NAME] COMMAND
+       hyq-command --generate-key FILE
 
-Sends one command to the HyQ servo's command channel (lcmt_hyq_command). The servo accepts it
-only if its command channel is enabled; refusals (bad values, too fast) are published on
-HYQ_EVENT with the field, what was expected and what was found (watch them with hyq-spy).
+Sends one command to the HyQ servo's command channel, signed with the robot's key
+(lcmt_hyq_signed_command around an lcmt_hyq_command; docs/security.md). The servo accepts it
+only if its command channel is enabled, the signature holds, the command is fresh (its time within
+commands.max_age_ms of the robot's clock) and its sequence is above the last one taken from this
+sender. Refusals (bad values, too fast, not authentic) are published on HYQ_EVENT with the field,
+what was expected and what was found (watch them with hyq-spy).
 
 commands:
   enable                 STANDBY -> ACTIVE
@@ -32,9 +39,14 @@ commands:
                          multipliers of the configured feedback gains (servo accepts [0.1, 2])
 
 options:
+  --key FILE             the robot's key (default $HYQ_COMMAND_KEY, else /etc/hyq/command.key);
+                         it must be readable by its owner alone (mode 0600 or 0400)
+  --sender NAME          who signs (default USER@HOST); the servo keeps one sequence per sender
+  --generate-key FILE    write a new random key to FILE (mode 0600; never overwrites) and exit
   --lcm-url URL          LCM URL (default udpm://239.255.76.67:7667?ttl=0)
   --channel NAME         command channel (default HYQ_COMMAND)
-  --sequence N           sequence number echoed in the servo's events (default: time in ms)
+  --sequence N           sequence number, echoed in the servo's events (default: the time in µs,
+                         so that it grows from one call to the next)
   -h, --help             this text
 )";
 
@@ -57,9 +69,20 @@ double ParseNumber(const std::string& what, const char* text) {
 int main(int argc, char** argv) {
   std::string url = "udpm://239.255.76.67:7667?ttl=0";
   std::string channel = "HYQ_COMMAND";
-  long long sequence = std::chrono::duration_cast<std::chrono::milliseconds>(
-                           std::chrono::system_clock::now().time_since_epoch())
-                           .count();
+  const long long now_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                              std::chrono::system_clock::now().time_since_epoch())
+                              .count();
+  long long sequence = now_us;
+  const char* env_key = std::getenv("HYQ_COMMAND_KEY");
+  std::string key_file = env_key != nullptr && *env_key != '\0' ? env_key : "/etc/hyq/command.key";
+  std::string sender;
+  {
+    const char* user = std::getenv("USER");
+    char host[64] = "host";
+    (void)gethostname(host, sizeof host - 1);
+    sender = std::string(user != nullptr && *user != '\0' ? user : "operator") + "@" + host;
+    if (sender.size() > 63) sender.resize(63);
+  }
   std::vector<const char*> args;
   for (int i = 1; i < argc; ++i) {
     const std::string_view a = argv[i];
@@ -70,6 +93,23 @@ int main(int argc, char** argv) {
     if (a == "-h" || a == "--help") {
       std::fputs(kUsage, stdout);
       return 0;
+    } else if (a == "--generate-key") {
+      const std::string path = value("--generate-key");
+      try {
+        hyq::servo::GenerateCommandKey(path);
+      } catch (const std::exception& e) {
+        std::fprintf(stderr, "hyq-command: %s\n", e.what());
+        return 1;
+      }
+      std::printf("hyq-command: wrote a new key to %s (mode 0600); give the servo the same file\n",
+                  path.c_str());
+      return 0;
+    } else if (a == "--key") {
+      key_file = value("--key");
+    } else if (a == "--sender") {
+      sender = value("--sender");
+      if (sender.empty() || sender.size() > 63) Fail("--sender: expected 1..63 bytes, found " +
+                                                     std::to_string(sender.size()));
     } else if (a == "--lcm-url") {
       url = value("--lcm-url");
     } else if (a.starts_with("--lcm-url=")) {
@@ -90,9 +130,7 @@ int main(int argc, char** argv) {
 
   using K = hyq_lcm::lcmt_hyq_command;
   K msg{};
-  msg.utime = std::chrono::duration_cast<std::chrono::microseconds>(
-                  std::chrono::system_clock::now().time_since_epoch())
-                  .count();
+  msg.utime = now_us;
   msg.sequence = sequence;
   msg.kp_scale = msg.kd_scale = 1.0;
   const std::string_view cmd = args[0];
@@ -128,16 +166,24 @@ int main(int argc, char** argv) {
          "' (expected enable, disable, damp, ack, mu, controller or gains)");
   }
 
+  std::vector<std::uint8_t> signed_bytes;
+  try {
+    signed_bytes = hyq::servo::SignCommand(hyq::servo::LoadCommandKey(key_file), sender, msg);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "hyq-command: %s\n", e.what());
+    return 1;
+  }
   lcm::LCM lcm(url);
   if (!lcm.good()) {
     std::fprintf(stderr, "hyq-command: cannot open LCM on '%s'\n", url.c_str());
     return 1;
   }
-  if (lcm.publish(channel, &msg) != 0) {
+  if (lcm.publish(channel, signed_bytes.data(), static_cast<unsigned>(signed_bytes.size())) != 0) {
     std::fprintf(stderr, "hyq-command: publishing on '%s' failed\n", channel.c_str());
     return 1;
   }
-  std::printf("hyq-command: sent %.*s (sequence %lld) on %s via %s\n", static_cast<int>(cmd.size()),
-              cmd.data(), static_cast<long long>(sequence), channel.c_str(), url.c_str());
+  std::printf("hyq-command: sent %.*s (sequence %lld, signed by %s) on %s via %s\n",
+              static_cast<int>(cmd.size()), cmd.data(), static_cast<long long>(sequence),
+              sender.c_str(), channel.c_str(), url.c_str());
   return 0;
 }

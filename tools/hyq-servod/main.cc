@@ -29,6 +29,7 @@
 #include "servo/runtime/servo_loop.h"
 #include "servo/runtime/realtime_thread.h"
 #include "servo/runtime/servo_runner.h"
+#include "servo/telemetry/command_auth.h"
 #include "servo/telemetry/telemetry.h"
 
 namespace {
@@ -41,7 +42,7 @@ struct Options {
   bool quiet = false;
   bool exit_on_fault = false;
   std::map<std::string, std::string> interfaces;
-  std::optional<std::string> clock, controller, reference, lcm_url;
+  std::optional<std::string> clock, controller, reference, lcm_url, command_key;
   std::optional<double> duration;
   std::optional<std::array<double, 4>> mu;
   bool auto_enable = false, no_telemetry = false, commands = false;
@@ -68,7 +69,9 @@ default), checks everything (safety) and writes the joint torques; LCM telemetry
   --mu M | --mu A,B,C,D  friction coefficient the controller assumes (all feet / lf,rf,lh,rh)
   --duration S           stop after S seconds in ACTIVE (0: run until SIGINT/SIGTERM)
   --auto-enable          go from STANDBY to ACTIVE without an operator command
-  --commands             open the LCM command channel (off unless configured or given)
+  --commands             open the LCM command channel (off unless configured or given); it
+                         takes only commands signed with the robot's key (docs/security.md)
+  --command-key FILE     the key file (default commands.key_file, /etc/hyq/command.key)
   --exit-on-fault        stop (devices to PRE-OP, exit 3) once in FAULT instead of waiting for
                          an acknowledgement
   --no-telemetry         no LCM at all
@@ -115,6 +118,7 @@ Options Parse(int argc, char** argv) {
     else if (a == "--quiet") o.quiet = true;
     else if (a == "--auto-enable") o.auto_enable = true;
     else if (a == "--commands") o.commands = true;
+    else if (a == "--command-key") o.command_key = value();
     else if (a == "--exit-on-fault") o.exit_on_fault = true;
     else if (a == "--no-telemetry") o.no_telemetry = true;
     else if (a == "--lcm-url") o.lcm_url = value();
@@ -188,6 +192,7 @@ void Override(const Options& o, hyq::servo::ServoConfig& c) {
   if (o.mu) c.mu = *o.mu;
   if (o.auto_enable) c.auto_enable = true;
   if (o.commands) c.commands.enabled = true;
+  if (o.command_key) c.commands.key_file = *o.command_key;
   if (o.no_telemetry) c.telemetry.enabled = false;
   if (o.lcm_url) c.telemetry.lcm_url = *o.lcm_url;
   hyq::config::ValidateServoConfig(c);
@@ -262,6 +267,8 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
       throw std::runtime_error(config.source + ": key 'robot.urdf': " + e.what());
     }
+    // the command key is checked here too, so that --check finds a key file others can read
+    if (config.commands.enabled) (void)hyq::servo::LoadCommandKey(config.commands.key_file);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hyq-servod: %s\n", e.what());
     return 1;
@@ -408,7 +415,15 @@ int main(int argc, char** argv) {
   if (telemetry) telemetry->Stop();  // publishes what is still queued
   const double wall_s = 1e-9 * static_cast<double>(hyq::MonotonicNs() - wall0);
 
-  const nlohmann::json summary = Summary(*loop, config, wall_s);
+  nlohmann::json summary = Summary(*loop, config, wall_s);
+  if (telemetry) {
+    const hyq::servo::TelemetryStats t = telemetry->stats();
+    summary["command_channel"] = {{"received", t.commands_received},
+                                  {"accepted", t.commands_accepted},
+                                  {"rejected", t.commands_rejected},
+                                  {"unauthenticated", t.commands_unauthenticated},
+                                  {"replayed", t.commands_replayed}};
+  }
   if (!opt.summary.empty()) std::ofstream(opt.summary) << summary.dump(2) << "\n";
   if (!opt.quiet) std::fprintf(stderr, "hyq-servod: summary\n%s\n", summary.dump(2).c_str());
   return stopped_in_fault ? 3 : 0;
