@@ -167,6 +167,29 @@ std::unique_ptr<hal::CanChannel> OpenChannel(std::string_view spec) {
 
 namespace hyq::drivers {
 
+std::string ChannelIdentity(const ChannelSpec& spec) {
+  if (const auto* s = std::get_if<SocketCanOptions>(&spec)) return "socketcan:" + s->interface;
+  if (const auto* u = std::get_if<UdpMulticastOptions>(&spec))
+    return "udp:" + u->group + ":" + std::to_string(u->port);
+  return "replay:" + std::get<ReplayOptions>(spec).path;
+}
+
+void CheckBusInterfaces(const std::vector<std::pair<std::string, std::string>>& buses) {
+  std::vector<std::string> ids;
+  for (std::size_t i = 0; i < buses.size(); ++i) {
+    const auto& [name, interface] = buses[i];
+    try {
+      ids.push_back(ChannelIdentity(ParseChannelSpec(SpecForInterface(interface))));
+    } catch (const ChannelError& e) {
+      throw ChannelError("bus '" + name + "': interface: " + e.what());
+    }
+    for (std::size_t k = 0; k < i; ++k)
+      if (ids[k] == ids[i] && ids[i].rfind("replay:", 0) != 0)
+        throw ChannelError("bus '" + name + "': expected a channel of its own, found '" + interface +
+                           "' (" + ids[i] + "), the channel of bus '" + buses[k].first + "' too");
+  }
+}
+
 std::string SpecForInterface(std::string_view interface) {
   for (std::string_view prefix : {"socketcan", "udp", "replay"})
     if (interface.substr(0, prefix.size()) == prefix) return std::string(interface);

@@ -20,7 +20,9 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <variant>
+#include <vector>
 
 #include "drivers/candump.h"
 #include "drivers/socketcan_channel.h"
@@ -54,5 +56,14 @@ namespace hyq::drivers {
 /// The spec for a bus interface as written in the HAL configuration: "can0" / "vcan1" (a bare
 /// interface name) means "socketcan:can0"; anything with a driver prefix is used as it is.
 std::string SpecForInterface(std::string_view interface);
+
+/// What a spec talks to, whatever the spelling: "socketcan:can0", "udp:239.74.163.2:43113"
+/// ("udp" and "udp::43113" are the same bus), "replay:PATH".
+std::string ChannelIdentity(const ChannelSpec& spec);
+
+/// Parses every bus's interface (what --check would otherwise pass and the start-up fail on) and
+/// refuses two buses on one channel (one interface, one UDP group and port).
+/// @throws ChannelError "bus 'NAME': ..." naming the bus, what was expected and what was found.
+void CheckBusInterfaces(const std::vector<std::pair<std::string, std::string>>& name_and_interface);
 
 }  // namespace hyq::drivers

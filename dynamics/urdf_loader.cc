@@ -111,9 +111,9 @@ void ReadPosture(const tinyxml2::XMLDocument& doc, const std::string& source,
     Fail(source, "expected a <hyq_posture name=\"standing\" base_height=\"..\"> element, found none");
   if (posture->QueryDoubleAttribute("base_height", &model->standing_base_height_m) !=
           tinyxml2::XML_SUCCESS ||
-      !(model->standing_base_height_m > 0.0))
+      !(model->standing_base_height_m > 0.0) || !std::isfinite(model->standing_base_height_m))
     Fail(source, "<hyq_posture name=\"standing\"> (line " + std::to_string(posture->GetLineNum()) +
-                     "): expected a positive base_height attribute");
+                     "): expected a positive, finite base_height attribute");
   std::array<bool, kNumJoints> seen{};
   for (auto* j = posture->FirstChildElement("joint"); j != nullptr;
        j = j->NextSiblingElement("joint")) {
@@ -126,6 +126,12 @@ void ReadPosture(const tinyxml2::XMLDocument& doc, const std::string& source,
     for (int i = 0; i < kNumJoints; ++i)
       if (names[i] == n) idx = i;
     if (idx < 0) Fail(source, "<hyq_posture> <joint>" + line + ": unknown joint '" + n + "'");
+    // the posture is where the robot is driven after enable: inside the joint's own limits
+    const JointLimits& lim = model->limits[static_cast<std::size_t>(idx)];
+    if (!std::isfinite(pos) || pos < lim.lower_rad || pos > lim.upper_rad)
+      Fail(source, "<hyq_posture> <joint name=\"" + std::string(n) + "\">" + line +
+                       ": expected a position within the joint's limits [" + Num(lim.lower_rad) +
+                       ", " + Num(lim.upper_rad) + "] rad, found " + Num(pos));
     model->q_standing(idx) = pos;
     seen[idx] = true;
   }

@@ -95,6 +95,18 @@ void ValidateHalConfig(const HalConfig& config) {
                       std::to_string(config.buses.size()));
   std::array<int, kNumJoints> seen{};
   int imus = 0;
+  for (std::size_t i = 0; i < config.buses.size(); ++i) {
+    const BusConfig& b = config.buses[i];
+    if (b.name.empty()) throw ConfigError("HAL buses[" + std::to_string(i) + "]: expected a name, found ''");
+    for (std::size_t k = 0; k < i; ++k) {
+      if (config.buses[k].name == b.name)
+        throw ConfigError("HAL buses[" + std::to_string(i) + "]: expected a unique bus name, found '" +
+                          b.name + "' a second time (buses[" + std::to_string(k) + "])");
+      if (config.buses[k].interface == b.interface)
+        throw ConfigError("bus '" + b.name + "': expected its own interface, found '" + b.interface +
+                          "', the interface of bus '" + config.buses[k].name + "' too");
+    }
+  }
   for (const BusConfig& b : config.buses) {
     const std::string who = "bus '" + b.name + "': ";
     if (!b.fd)
@@ -129,8 +141,9 @@ void ValidateHalConfig(const HalConfig& config) {
       throw ConfigError("HAL buses: joint " + std::string(JointName(j)) +
                         " must be driven by exactly one actuator, found " +
                         std::to_string(seen[static_cast<std::size_t>(j)]));
-  if (imus > 1)
-    throw ConfigError("HAL buses: at most one IMU, found " + std::to_string(imus));
+  if (imus != 1)  // the estimator needs the base's orientation and rate (servo/estimation)
+    throw ConfigError("HAL buses: expected exactly one IMU (kind: imu; the state estimator needs "
+                      "it), found " + std::to_string(imus));
   for (int j = 0; j < kNumJoints; ++j)
     ValidateCalibration(config.joints[static_cast<std::size_t>(j)], JointName(j));
   (void)CheckBusLoad(config);

@@ -3,6 +3,7 @@
 #include <poll.h>
 
 #include <algorithm>
+#include <cstdio>
 
 #include "hal/clock.h"
 #include "hal/config_error.h"
@@ -50,10 +51,24 @@ std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
                      const std::function<bool()>& abort) {
   const auto period = static_cast<std::int64_t>(config.period_s() * 1e9);
   std::int64_t now = config.clock == ClockMode::kLockstep ? 0 : MonotonicNs();
+  // in lock-step the HAL's timeout counts simulated time, and each cycle may wait up to 200 ms
+  // for answers that never come: bound the wall time by the same timeout, so that the message's
+  // "after 3 s" is what the operator waited
+  const std::int64_t wall0 = MonotonicNs();
+  const auto timeout_ns = static_cast<std::int64_t>(hal.config().timing.bringup_timeout_s * 1e9);
   hal::RunBringUp(hal, hal::DeviceState::kOp, now, [&] {
     if (abort && abort())
       throw hal::ConfigError("bring-up aborted by a stop request (SIGINT/SIGTERM) before every "
                              "device reached OP: " + hal.BringUpReport(now));
+    if (config.clock == ClockMode::kLockstep && MonotonicNs() - wall0 > timeout_ns) {
+      char head[160];
+      std::snprintf(head, sizeof head,
+                    "HAL bring-up to OP timed out after %g s of wall time (lock-step: %lld cycles, "
+                    "%.3f s simulated): ",
+                    hal.config().timing.bringup_timeout_s, static_cast<long long>(now / period),
+                    1e-9 * static_cast<double>(now));
+      throw hal::ConfigError(head + hal.BringUpReport(now));
+    }
     if (config.clock == ClockMode::kLockstep) {
       // devices that owe no TPDO yet answer NMT commands: give them a moment of wall time
       (void)WaitForInputs(hal, channels, 200'000'000, 20'000'000);

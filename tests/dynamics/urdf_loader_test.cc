@@ -111,6 +111,20 @@ TEST(UrdfLoader, MissingPosture) {
   EXPECT_THAT(LoadError(xml), HasSubstr("expected a <hyq_posture name=\"standing\""));
 }
 
+// issue 13 finding 8: a NaN or out-of-range standing posture loaded, and the servo would drive
+// the robot towards it after enable
+TEST(UrdfLoader, PostureNaNOrOutsideTheLimits) {
+  std::string xml = Replace(ProjectUrdfText(), "<joint name=\"lf_kfe_joint\" position=\"-1.5\"/>",
+                            "<joint name=\"lf_kfe_joint\" position=\"nan\"/>");
+  EXPECT_THAT(LoadError(xml), AllOf(HasSubstr("lf_kfe_joint"), HasSubstr("within the joint's limits"),
+                                    HasSubstr("found nan")));
+  xml = Replace(ProjectUrdfText(), "<joint name=\"rh_hfe_joint\" position=\"-0.75\"/>",
+                "<joint name=\"rh_hfe_joint\" position=\"7\"/>");
+  EXPECT_THAT(LoadError(xml), AllOf(HasSubstr("rh_hfe_joint"), HasSubstr("found 7")));
+  xml = Replace(ProjectUrdfText(), "base_height=\"0.5993\"", "base_height=\"inf\"");
+  EXPECT_THAT(LoadError(xml), HasSubstr("positive, finite base_height"));
+}
+
 TEST(UrdfLoader, WeldedBase) {
   const std::string xml = Replace(ProjectUrdfText(), "type=\"floating\"", "type=\"fixed\"");
   EXPECT_THAT(LoadError(xml), AllOf(HasSubstr("root link 'world'"), HasSubstr("floating joint")));

@@ -139,5 +139,18 @@ TEST(HalConfigLoader, SemanticErrorsFromValidationNameTheFile) {
   EXPECT_NE(m.find("calibration of lf_hfe_joint"), std::string::npos) << m;
 }
 
+// issue 13 finding 8: these passed --check
+TEST(HalConfigLoader, DuplicateBusesAndAMissingImuAreErrors) {
+  std::string m = ErrorAfterEdit("  - name: rf\n", "  - name: lf\n");
+  EXPECT_NE(m.find("buses[1]: expected a unique bus name, found 'lf' a second time (buses[0])"),
+            std::string::npos) << m;
+  m = ErrorAfterEdit("    interface: can3\n", "    interface: can0\n");
+  EXPECT_NE(m.find("bus 'rh': expected its own interface, found 'can0', the interface of bus 'lf' too"),
+            std::string::npos) << m;
+  m = ErrorAfterEdit("      - {name: imu, kind: imu, node_id: 16}\n", "");
+  EXPECT_NE(m.find("expected exactly one IMU"), std::string::npos) << m;
+  EXPECT_NE(m.find("found 0"), std::string::npos) << m;
+}
+
 }  // namespace
 }  // namespace hyq::config

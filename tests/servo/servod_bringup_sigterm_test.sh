@@ -26,4 +26,15 @@ for clock in lockstep realtime; do
   grep -q "bring-up aborted by a stop request" "$out/$clock.log" ||
     { cat "$out/$clock.log"; echo "FAIL: no message naming the stop request" >&2; exit 1; }
 done
+# and without a signal, the lock-step bring-up ends after the configured timeout of wall time
+# (3 s), not after 3 s of simulated time at up to 200 ms of waiting per cycle
+start=$(date +%s%N)
+"$servod" --config "$src/config/hyq_servo_sim.yaml" --clock lockstep --no-telemetry --quiet 2>"$out/timeout.log"
+rc=$?
+ms=$(( ($(date +%s%N) - start) / 1000000 ))
+echo "servod_bringup_sigterm: lock-step bring-up without devices: exit $rc after $ms ms"
+[[ $rc -eq 1 ]] || { cat "$out/timeout.log"; echo "FAIL: expected exit 1" >&2; exit 1; }
+((ms < 8000)) || { echo "FAIL: the bring-up took $ms ms, the timeout is 3 s" >&2; exit 1; }
+grep -q "timed out after 3 s of wall time" "$out/timeout.log" ||
+  { cat "$out/timeout.log"; echo "FAIL: the message does not name the wall time" >&2; exit 1; }
 echo "servod_bringup_sigterm: PASS"

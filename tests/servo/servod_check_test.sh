@@ -43,6 +43,38 @@ expect_error bad_mu 's/^  mu: 0.6 .*/  mu: [0.6, 0.6, nan, 0.6]/' "key 'contact.
 expect_error missing_urdf 's|^  urdf: robots/hyq.urdf|  urdf: robots/nope.urdf|' "nope.urdf"
 expect_error bad_lcm_url 's|^  lcm_url: .*|  lcm_url: tcp://host|' "key 'telemetry.lcm_url'" "udpm://"
 
+# expect_hal_error NAME 'sed program' 'text'...: the same with the HAL file edited
+expect_hal_error() {
+  local name=$1 prog=$2
+  shift 2
+  local d="$work/$name"
+  mkdir -p "$d" && cp -r "$src/config/robots" "$d/" && cp "$good" "$d/hyq_servo.yaml"
+  sed "$prog" "$src/config/hyq_hal.yaml" > "$d/hyq_hal.yaml"
+  cmp -s "$d/hyq_hal.yaml" "$src/config/hyq_hal.yaml" && { echo "FAIL $name: the sed program changed nothing"; fails=$((fails + 1)); return; }
+  out=$("$servod" --check --config "$d/hyq_servo.yaml" 2>&1)
+  rc=$?
+  if ((rc == 0)); then echo "FAIL $name: accepted"; fails=$((fails + 1)); return; fi
+  for t in "$@"; do
+    if [[ "$out" != *"$t"* ]]; then echo "FAIL $name: message lacks '$t': $out"; fails=$((fails + 1)); return; fi
+  done
+  echo "ok   $name (exit $rc): $out"
+}
+# issue 13 finding 8: these passed --check
+expect_error regex_channel 's|^  channel: HYQ_COMMAND|  channel: "HYQ_.*"|' "commands.channel" "regular expression"
+expect_error lcm_url_bad_group 's|^  lcm_url: .*|  lcm_url: "udpm://[[[::"|' "telemetry.lcm_url (group)" "multicast address"
+expect_hal_error udp_bad_port 's|^    interface: can0|    interface: udp::99999|' "hyq_hal.yaml" "bus 'lf'" "1..65535" "99999"
+expect_hal_error two_buses_one_port 's|^    interface: can0|    interface: udp|; s|^    interface: can1|    interface: udp::43113|' \
+  "bus 'rf': expected a channel of its own" "udp:239.74.163.2:43113" "bus 'lf'"
+expect_hal_error duplicate_bus_name 's|^  - name: rh$|  - name: lh|' "expected a unique bus name, found 'lh' a second time"
+expect_hal_error missing_imu '/kind: imu/d' "expected exactly one IMU"
+expect_hal_error nan_timeout 's|^  state_timeout_s: .*|  state_timeout_s: .nan|' "timing.state_timeout_s"
+# the command key: with the channel on, a key others can read is refused by --check
+printf '%064d\n' 0 > "$work/open.key" && chmod 644 "$work/open.key"
+sed -e 's|^  enabled: false  *# the LCM command channel.*|  enabled: true|' -e "s|^  key_file: .*|  key_file: $work/open.key|" "$good" > "$work/open_key.yaml"
+out=$("$servod" --check --config "$work/open_key.yaml" 2>&1); rc=$?
+if ((rc == 1)) && [[ "$out" == *"open.key': expected mode 0600 or 0400"* ]]; then echo "ok   open_key: $out"
+else echo "FAIL open_key (exit $rc): $out"; fails=$((fails + 1)); fi
+
 # bad command-line flags name the flag, what was expected and what was found
 out=$("$servod" --clock warp 2>&1); rc=$?
 if ((rc == 2)) && [[ "$out" == *"--clock"* && "$out" == *"realtime or lockstep"* && "$out" == *"warp"* ]]; then

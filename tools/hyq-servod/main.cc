@@ -267,6 +267,14 @@ int main(int argc, char** argv) {
     } catch (const std::exception& e) {
       throw std::runtime_error(config.source + ": key 'robot.urdf': " + e.what());
     }
+    // every bus's interface spec, and no two buses on one channel (what --check used to pass)
+    std::vector<std::pair<std::string, std::string>> buses;
+    for (const auto& b : config.hal.buses) buses.emplace_back(b.name, b.interface);
+    try {
+      hyq::drivers::CheckBusInterfaces(buses);
+    } catch (const std::exception& e) {
+      throw std::runtime_error(config.hal_file + ": " + e.what());
+    }
     // the command key is checked here too, so that --check finds a key file others can read
     if (config.commands.enabled) (void)hyq::servo::LoadCommandKey(config.commands.key_file);
   } catch (const std::exception& e) {
