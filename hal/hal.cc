@@ -233,6 +233,9 @@ HalStatus Bus::Read(std::int64_t now_ns, std::uint64_t cycle, ProcessImage* imag
     more = n == rx_.size();
   }
   if (more) ++counters_.rx_backlog;
+  // what the driver dropped before a frame existed (a datagram that is no CAN frame): not a
+  // device's fault, but visible (HYQ_HEALTH)
+  counters_.driver_dropped = channel_->counters().bad_frames;
   if (saw_bus_off_ || channel_->counters().bus_state == BusState::kBusOff) {
     ++counters_.bus_off;
     status = HalStatus::kBusOff;

@@ -49,7 +49,8 @@ struct BusCounters {
   std::uint64_t missing = 0;         // device inputs expected but not received
   std::uint64_t late = 0;            // TPDOs answering an older SYNC (not used)
   std::uint64_t duplicate = 0;
-  std::uint64_t malformed = 0;       // frames that failed to decode (never used)
+  std::uint64_t malformed = 0;       // frames with a device's id that failed to decode
+  std::uint64_t driver_dropped = 0;  // input the channel dropped as malformed (CanCounters::bad_frames)
   std::uint64_t unknown = 0;         // frames from ids no configured device owns
   /// SYNC, NMT or RPDO frames received: the HAL is the only sender of those on its buses (the
   /// drivers drop the HAL's own echoes), so each is a second master or a spoofer

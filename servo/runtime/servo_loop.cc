@@ -326,6 +326,7 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
     h.emcy = c.emcy;
     h.bus_off = c.bus_off;
     h.tx_failed = c.tx_failed;
+    h.driver_dropped = c.driver_dropped;
     h.wkc_expected = hal_.bus(b).wkc().expected;
     h.wkc_received = hal_.bus(b).wkc().received;
     for (const auto& d : hal_.bus(b).devices())

@@ -112,6 +112,7 @@ void ToLcm(const TelemetrySnapshot& s, const TelemetryStats& st, hyq_lcm::lcmt_h
     out.emcy = static_cast<std::int64_t>(in.emcy);
     out.bus_off = static_cast<std::int64_t>(in.bus_off);
     out.tx_failed = static_cast<std::int64_t>(in.tx_failed);
+    out.driver_dropped = static_cast<std::int64_t>(in.driver_dropped);
     out.wkc_expected = static_cast<std::int32_t>(in.wkc_expected);
     out.wkc_received = static_cast<std::int32_t>(in.wkc_received);
   }

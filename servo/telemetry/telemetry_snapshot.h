@@ -25,7 +25,7 @@ struct CycleTiming {
 struct BusHealth {
   std::uint64_t rx_frames = 0, tx_frames = 0;
   std::uint64_t wkc_faults = 0, missing = 0, malformed = 0, error_frames = 0, emcy = 0;
-  std::uint64_t bus_off = 0, tx_failed = 0;
+  std::uint64_t bus_off = 0, tx_failed = 0, driver_dropped = 0;
   std::uint32_t wkc_expected = 0, wkc_received = 0;
 };
 
