@@ -83,6 +83,7 @@ BusLoadReport ComputeBusLoad(const BusConfig& bus, double cycle_period_s, bool h
     }
     if (heartbeats) Add(&r, bus, "heartbeat " + d.name, kHeartbeatLen);
   }
+  if (heartbeats) Add(&r, bus, "heartbeat master", kHeartbeatLen);  // the HAL's own
   r.load = cycle_period_s > 0.0 ? r.busy_time_s / cycle_period_s : 0.0;
   return r;
 }

@@ -25,6 +25,8 @@ Emulator::Emulator(const HalConfig& config, std::span<CanChannel* const> channel
     : config_(config),
       heartbeat_period_ns_(static_cast<std::int64_t>(config.timing.heartbeat_period_s * 1e9)),
       setpoint_timeout_ns_(static_cast<std::int64_t>(config.timing.device_setpoint_timeout_s * 1e9)),
+      master_heartbeat_timeout_ns_(
+          static_cast<std::int64_t>(config.timing.master_heartbeat_timeout_s * 1e9)),
       rng_(seed == 0 ? 0x9E3779B97F4A7C15ull : seed) {
   ValidateHalConfig(config_);
   if (channels.size() != config_.buses.size())
@@ -126,6 +128,24 @@ void Emulator::CheckSetpointTimer(BusState& b, Device& d, std::int64_t now_ns) n
   d.trip_ns = now_ns;
   d.trip_delay_ns = std::max(since_sync, since_setpoint);
   ++b.counters.setpoint_timeouts;
+}
+
+// CiA 301 heartbeat consumer of the master: active from the first heartbeat on; when it stops
+// for master_heartbeat_timeout_s, a board in OPERATIONAL reacts as to a lost set-point, with
+// EMCY 0x8130 (heartbeat error).
+void Emulator::CheckMasterHeartbeat(BusState& b, Device& d, std::int64_t now_ns) noexcept {
+  if (b.last_master_heartbeat_ns < 0 || d.nmt != NmtState::kOperational) return;
+  const std::int64_t since = now_ns - std::max(b.last_master_heartbeat_ns, d.op_entered_ns);
+  if (since <= master_heartbeat_timeout_ns_) return;
+  d.enabled = false;
+  d.torque_mNm = 0;
+  d.watchdog = true;
+  d.nmt = NmtState::kPreOperational;
+  d.emcy_pending = true;
+  d.pending_emcy = emcy::kHeartbeatLost;
+  d.trip_ns = now_ns;
+  d.trip_delay_ns = since;
+  ++b.counters.heartbeat_trips;
 }
 
 void Emulator::Answer(BusState& b, Device& d, std::uint8_t counter) noexcept {
@@ -274,7 +294,13 @@ void Emulator::HandleFrame(BusState& b, const CanFrame& f) noexcept {
       d.torque_mNm = enable ? p.torque_mNm : 0;
       return;
     }
-    default: return;  // our own kind of traffic (TPDOs, heartbeats of others): not for us
+    case FrameKind::kHeartbeat:
+      if (a.node == kMasterNodeId) {
+        ++b.counters.master_heartbeats;
+        b.last_master_heartbeat_ns = now_ns_;
+      }
+      return;  // other boards' heartbeats: not for us
+    default: return;  // our own kind of traffic (TPDOs): not for us
   }
 }
 
@@ -298,6 +324,7 @@ void Emulator::Poll(std::int64_t now_ns) noexcept {
       Device& d = devices_[static_cast<std::size_t>(index)];
       if (d.faults.silent) continue;
       CheckSetpointTimer(b, d, now_ns);
+      CheckMasterHeartbeat(b, d, now_ns);
       if (b.recovered) {
         d.emcy_pending = true;
         d.pending_emcy = emcy::kBusOffRecovered;

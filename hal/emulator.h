@@ -61,6 +61,8 @@ struct EmulatorCounters {
   std::uint64_t tx_failed = 0;
   std::uint64_t bus_off_events = 0;
   std::uint64_t setpoint_timeouts = 0;  // boards that tripped on their own timer
+  std::uint64_t master_heartbeats = 0;  // the master's heartbeats received
+  std::uint64_t heartbeat_trips = 0;    // boards that tripped because the master's heartbeat stopped
 };
 
 class Emulator {
@@ -152,6 +154,7 @@ class Emulator {
     bool off = false;
     bool recovered = false;
     std::int64_t last_sync_ns = -1;
+    std::int64_t last_master_heartbeat_ns = -1;  // -1: none yet (the consumer is not active)
     EmulatorCounters counters;
   };
 
@@ -163,6 +166,7 @@ class Emulator {
   void Answer(BusState& b, Device& d, std::uint8_t counter) noexcept;
   void Nmt(Device& d, NmtCommand cmd) noexcept;
   void CheckSetpointTimer(BusState& b, Device& d, std::int64_t now_ns) noexcept;
+  void CheckMasterHeartbeat(BusState& b, Device& d, std::int64_t now_ns) noexcept;
   void Queue(BusState& b, const CanFrame& f) noexcept;
   void Flush(BusState& b) noexcept;
   double Uniform() noexcept;
@@ -170,6 +174,7 @@ class Emulator {
   HalConfig config_;
   std::int64_t heartbeat_period_ns_;
   std::int64_t setpoint_timeout_ns_;
+  std::int64_t master_heartbeat_timeout_ns_;
   std::vector<Device> devices_;
   std::vector<BusState> buses_;
   std::array<int, kNumJoints> joint_to_device_{};

@@ -51,7 +51,8 @@ Bus::Bus(BusConfig config, const TimingConfig& timing,
     : config_(std::move(config)),
       timing_(MakeStateMachineTiming(timing)),
       calibration_(calibration),
-      channel_(channel) {
+      channel_(channel),
+      heartbeat_period_ns_(static_cast<std::int64_t>(timing.master_heartbeat_period_s * 1e9)) {
   if (channel_ == nullptr) throw ConfigError("bus '" + config_.name + "': no CAN channel given");
   if (config_.devices.size() > static_cast<std::size_t>(kMaxDevicesPerBus))
     throw ConfigError("bus '" + config_.name + "': at most " + std::to_string(kMaxDevicesPerBus) +
@@ -67,8 +68,8 @@ Bus::Bus(BusConfig config, const TimingConfig& timing,
     d.config_index = static_cast<int>(i);
     node_to_device_.at(c.node_id) = static_cast<std::int8_t>(i);
   }
-  // NMT commands (2 per device at most per cycle), RPDOs, SYNC
-  tx_storage_.resize(3 * devices_.size() + 4);
+  // NMT commands (2 per device at most per cycle), RPDOs, SYNC, the master's heartbeat
+  tx_storage_.resize(3 * devices_.size() + 5);
   tx_.frames = tx_storage_.data();
   tx_.capacity = tx_storage_.size();
 }
@@ -96,6 +97,11 @@ void Bus::HandleFrame(const CanFrame& f, StateMachineContext& ctx) noexcept {
     case FrameKind::kRpdo4:
       // only the master sends these, and the master is us: another sender is on the bus
       ++counters_.foreign_master;
+      counters_.last_foreign_id = f.id;
+      return;
+    case FrameKind::kHeartbeat:
+      if (a.node != kMasterNodeId) break;
+      ++counters_.foreign_master;  // our heartbeat, sent by someone else
       counters_.last_foreign_id = f.id;
       return;
     default:
@@ -283,8 +289,12 @@ HalStatus Bus::Read(std::int64_t now_ns, std::uint64_t cycle, ProcessImage* imag
 }
 
 HalStatus Bus::Write(std::int64_t now_ns, const ProcessImage& image) noexcept {
-  (void)now_ns;
   HalStatus status = HalStatus::kOk;
+  // the master's heartbeat, which the boards consume (docs/can_protocol.md §2)
+  if (next_heartbeat_ns_ < 0 || now_ns >= next_heartbeat_ns_) {
+    tx_.Push(EncodeHeartbeat(kMasterNodeId, NmtState::kOperational));
+    next_heartbeat_ns_ = now_ns + heartbeat_period_ns_;
+  }
   const std::uint8_t next_sync = NextSyncCounter(sync_counter_);
   // outputs: set-points in OP, 0 N·m and disabled (or an enable request) in SAFE-OP
   for (DeviceRuntime& d : devices_) {

@@ -111,6 +111,8 @@ class Bus {
   std::vector<CanFrame> tx_storage_;
   FrameQueue tx_;
   std::uint8_t sync_counter_ = 0;  // of the last SYNC sent; 0 = none yet
+  std::int64_t heartbeat_period_ns_ = 0;  // of the master's heartbeat
+  std::int64_t next_heartbeat_ns_ = -1;   // -1: send one with the next Write
   std::uint64_t cycle_ = 0;
   bool saw_bus_off_ = false;
   bool sync_since_read_ = false;   // a SYNC went out since the last Read: inputs are expected

@@ -87,6 +87,11 @@ void ValidateHalConfig(const HalConfig& config) {
       t.max_missed_cycles < 0 || t.min_valid_cycles_for_op < 1)
     throw ConfigError("HAL timing: expected all periods and timeouts > 0, heartbeat_timeout_s > "
                       "heartbeat_period_s, max_missed_cycles >= 0, min_valid_cycles_for_op >= 1");
+  if (!(t.master_heartbeat_period_s > 0.0) ||
+      !(t.master_heartbeat_timeout_s > t.master_heartbeat_period_s))
+    throw ConfigError("HAL timing: expected master_heartbeat_timeout_s > master_heartbeat_period_s "
+                      "> 0, found " + std::to_string(t.master_heartbeat_timeout_s) + " and " +
+                      std::to_string(t.master_heartbeat_period_s));
   if (!(config.max_bus_load > 0.0) || config.max_bus_load > 1.0)
     throw ConfigError("HAL max_bus_load: expected a fraction in (0, 1], found " +
                       std::to_string(config.max_bus_load));
@@ -120,9 +125,9 @@ void ValidateHalConfig(const HalConfig& config) {
                         " devices, found " + std::to_string(b.devices.size()));
     std::array<bool, kMaxNodeId + 1> used{};
     for (const DeviceConfig& d : b.devices) {
-      if (d.node_id < kMinNodeId || d.node_id > kMaxNodeId)
-        throw ConfigError(who + "device '" + d.name + "': node_id must be 1..127, found " +
-                          std::to_string(d.node_id));
+      if (d.node_id < kMinNodeId || d.node_id >= kMasterNodeId)
+        throw ConfigError(who + "device '" + d.name + "': node_id must be 1..126 (127 is the "
+                          "master's), found " + std::to_string(d.node_id));
       if (used[d.node_id])
         throw ConfigError(who + "node_id " + std::to_string(d.node_id) + " used twice (device '" +
                           d.name + "')");

@@ -54,6 +54,11 @@ struct TimingConfig {
   /// board in OPERATIONAL that gets no SYNC, or (outputs on) no set-point, for this long on its
   /// own timer sets 0 N·m, closes its valve, sends EMCY 0x8250 and leaves OPERATIONAL.
   double device_setpoint_timeout_s = 0.008;
+  /// The master's heartbeat (node kMasterNodeId, NMT state operational), every this often on
+  /// every bus; the boards consume it (CiA 301 heartbeat consumer, active after the first one):
+  /// none for master_heartbeat_timeout_s in OPERATIONAL -> 0 N·m, EMCY 0x8130, PRE-OPERATIONAL.
+  double master_heartbeat_period_s = 0.05;
+  double master_heartbeat_timeout_s = 0.2;
 };
 
 struct HalConfig {

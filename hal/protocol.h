@@ -27,6 +27,9 @@ inline constexpr std::uint32_t kHeartbeat = 0x700;
 
 inline constexpr std::uint8_t kMinNodeId = 1;
 inline constexpr std::uint8_t kMaxNodeId = 127;
+/// The master's own node-id: its heartbeat is 0x700 + 127 = 0x77F (docs/can_protocol.md §2).
+/// No device may use it.
+inline constexpr std::uint8_t kMasterNodeId = 127;
 inline constexpr std::uint8_t kSyncCounterMax = 240;  // CiA 301 synchronous counter overflow
 
 // Payload lengths in bytes (FD lengths where the layout needs more than 8).

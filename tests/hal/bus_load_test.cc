@@ -43,12 +43,12 @@ TEST(BusLoad, DefaultLayoutHandComputed) {
   const std::vector<BusLoadReport> r = CheckBusLoad(cfg);
   ASSERT_EQ(r.size(), 4u);
   // per frame at 1/5 Mbit/s: 1 B 42.6 us, 8 B 56.6 us, 16 B 72.6 us, 32 B 105.6 us
-  // lf: SYNC + 3 x (TPDO 16 + RPDO 8 + heartbeat) + IMU TPDO 32 + IMU heartbeat
-  const double lf = 42.6 + 3 * (72.6 + 56.6 + 42.6) + 105.6 + 42.6;  // 706.2 us
-  const double leg = 42.6 + 3 * (72.6 + 56.6 + 42.6);                // 558.0 us
+  // lf: SYNC + 3 x (TPDO 16 + RPDO 8 + heartbeat) + IMU TPDO 32 + IMU heartbeat + the master's
+  const double lf = 42.6 + 3 * (72.6 + 56.6 + 42.6) + 105.6 + 42.6 + 42.6;  // 748.8 us
+  const double leg = 42.6 + 3 * (72.6 + 56.6 + 42.6) + 42.6;                // 600.6 us
   EXPECT_NEAR(r[0].busy_time_s * 1e6, lf, 1e-6);
   EXPECT_NEAR(r[0].load, lf / 1000.0, 1e-9);
-  EXPECT_EQ(r[0].items.size(), 1u + 3 * 3 + 2);
+  EXPECT_EQ(r[0].items.size(), 1u + 3 * 3 + 2 + 1);
   for (int b = 1; b < 4; ++b) EXPECT_NEAR(r[static_cast<std::size_t>(b)].busy_time_s * 1e6, leg, 1e-6);
 }
 
@@ -60,15 +60,15 @@ TEST(BusLoad, DesignNumbersForClassicCan) {
   HalConfig cfg = DefaultHalConfig();
   cfg.buses[0].fd = false;
   const BusLoadReport lf = ComputeBusLoad(cfg.buses[0], 0.001, true);
-  // SYNC 65 + 3 x (2 x 135 + 135 + 65) + IMU 4 x 135 + 65 = 2080 bits
-  EXPECT_NEAR(lf.busy_time_s * 1e6, 2080.0, 1e-6);
+  // SYNC 65 + 3 x (2 x 135 + 135 + 65) + IMU 4 x 135 + 65 + master heartbeat 65 = 2145 bits
+  EXPECT_NEAR(lf.busy_time_s * 1e6, 2145.0, 1e-6);
   try {
     (void)CheckBusLoad(cfg);
     FAIL();
   } catch (const ConfigError& e) {
     const std::string msg = e.what();
     EXPECT_NE(msg.find("bus 'lf'"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("208.0 %"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("214.5 %"), std::string::npos) << msg;
     EXPECT_NE(msg.find("limit 80.0 %"), std::string::npos) << msg;
     EXPECT_NE(msg.find("(classic)"), std::string::npos) << msg;
   }
@@ -76,23 +76,23 @@ TEST(BusLoad, DesignNumbersForClassicCan) {
 
 TEST(BusLoad, LimitIsConfigurableAndNamesTheBus) {
   HalConfig cfg = DefaultHalConfig();
-  cfg.max_bus_load = 0.70;  // lf carries the IMU: 70.6 %
+  cfg.max_bus_load = 0.74;  // lf carries the IMU: 74.9 %
   try {
     (void)CheckBusLoad(cfg);
     FAIL();
   } catch (const ConfigError& e) {
     const std::string msg = e.what();
-    EXPECT_NE(msg.find("bus 'lf': worst-case load 70.6 %"), std::string::npos) << msg;
-    EXPECT_NE(msg.find("(12 frames, 706.2 us per 1000.0 us cycle at 1000 kbit/s / 5000 kbit/s "
-                       "data (FD)) exceeds the limit 70.0 %"),
+    EXPECT_NE(msg.find("bus 'lf': worst-case load 74.9 %"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("(13 frames, 748.8 us per 1000.0 us cycle at 1000 kbit/s / 5000 kbit/s "
+                       "data (FD)) exceeds the limit 74.0 %"),
               std::string::npos) << msg;
   }
-  cfg.max_bus_load = 0.71;
+  cfg.max_bus_load = 0.75;
   EXPECT_NO_THROW((void)CheckBusLoad(cfg));
-  // 2 Mbit/s data phase: lf 55.5 + 3 x (130.5 + 90.5 + 55.5) + 213 + 55.5 = 1153.5 us
+  // 2 Mbit/s data phase: lf 55.5 + 3 x (130.5 + 90.5 + 55.5) + 213 + 55.5 + 55.5 = 1209 us
   cfg = DefaultHalConfig();
   cfg.buses[0].data_bitrate = 2'000'000;
-  EXPECT_NEAR(ComputeBusLoad(cfg.buses[0], 0.001, true).load, 1.1535, 1e-9);
+  EXPECT_NEAR(ComputeBusLoad(cfg.buses[0], 0.001, true).load, 1.209, 1e-9);
   EXPECT_THROW((void)CheckBusLoad(cfg), ConfigError);
   EXPECT_THROW(ValidateHalConfig(cfg), ConfigError);
 }

@@ -166,6 +166,75 @@ TEST_F(EmulatorAlone, DeadMasterTripsTheBoardsOnTheirOwnTimer) {
   EXPECT_EQ(emu_->counters(1).setpoint_timeouts, 3u);
 }
 
+// CiA 301 heartbeat consumer of the master (issue 13, finding 2): SYNCs and set-points keep
+// coming, but the master's heartbeat stops: 200 ms later the board is at 0 N·m, out of OP, with
+// EMCY 0x8130. Before the first heartbeat the consumer is not active.
+TEST_F(EmulatorAlone, MasterHeartbeatConsumerTripsWhenTheHeartbeatStops) {
+  ASSERT_DOUBLE_EQ(config_.timing.master_heartbeat_timeout_s, 0.2);
+  const CanFrame heartbeat = EncodeHeartbeat(kMasterNodeId, NmtState::kOperational);
+  EXPECT_EQ(heartbeat.id, 0x77Fu);
+  (void)Poll();
+  Send(EncodeNmt(NmtCommand::kStart, 0));
+  std::uint8_t sync = 0;
+  const auto cycle = [&] {
+    sync = static_cast<std::uint8_t>(sync % 240 + 1);
+    Send(EncodeActuatorRpdo(1, {20'000, control_bit::kEnable, sync, 0}));
+    Send(EncodeSync(sync));
+    return Poll();
+  };
+  // no heartbeat at all for 500 ms: the consumer is not active yet, nothing trips
+  for (int i = 0; i < 500; ++i) (void)cycle();
+  ASSERT_TRUE(emu_->outputs_enabled(3));
+  EXPECT_EQ(emu_->counters(1).heartbeat_trips, 0u);
+  // a heartbeat every 50 ms for 1 s: still fine
+  for (int i = 0; i < 1000; ++i) {
+    if (i % 50 == 0) Send(heartbeat);
+    (void)cycle();
+  }
+  ASSERT_TRUE(emu_->outputs_enabled(3));
+  EXPECT_EQ(emu_->counters(1).master_heartbeats, 20u);
+  // the heartbeat stops (the last one was 50 ms ago): the board trips once 200 ms have passed
+  std::vector<CanFrame> rx;
+  int polls = 0;
+  while (emu_->outputs_enabled(3) && polls < 1000) {
+    rx = cycle();
+    ++polls;
+  }
+  // the last heartbeat arrived with poll 950 of 1000: 49 + 152 = 201 ms of polls (> 200 ms)
+  EXPECT_EQ(polls, 152);
+  EXPECT_EQ(emu_->torque_setpoint_Nm(3), 0.0);
+  EXPECT_EQ(emu_->nmt_state(3), NmtState::kPreOperational);
+  const CanFrame* e = Find(rx, 0x081);
+  ASSERT_NE(e, nullptr);
+  EmcyMessage m;
+  ASSERT_EQ(DecodeEmcy(*e, 1, &m), PdoStatus::kOk);
+  EXPECT_EQ(m.code, emcy::kHeartbeatLost);
+  EXPECT_EQ(emu_->counters(1).heartbeat_trips, 3u);
+  EXPECT_EQ(emu_->counters(1).setpoint_timeouts, 0u);  // not the set-point timer: it had SYNCs
+}
+
+// The HAL sends that heartbeat (every 50 ms on every bus), and one it did not send is a second
+// master.
+TEST(EmulatorWithHal, TheHalSendsTheMasterHeartbeatAndSeesASpoofedOne) {
+  testing::HalRig rig(DefaultHalConfig(), 1, /*endpoints=*/3);
+  rig.BringUp();
+  std::array<std::uint64_t, 4> before{};
+  for (int b = 0; b < 4; ++b) before[static_cast<std::size_t>(b)] = rig.emu->counters(b).master_heartbeats;
+  rig.Steps(1000);
+  for (int b = 0; b < 4; ++b) {
+    EXPECT_EQ(rig.emu->counters(b).master_heartbeats - before[static_cast<std::size_t>(b)], 20u) << b;
+    EXPECT_EQ(rig.emu->counters(b).heartbeat_trips, 0u);
+  }
+  EXPECT_TRUE(rig.hal->AllIn(DeviceState::kOp));
+  EXPECT_EQ(rig.hal->bus(2).counters().foreign_master, 0u);
+  const CanFrame spoof = EncodeHeartbeat(kMasterNodeId, NmtState::kOperational);
+  std::size_t sent = 0;
+  ASSERT_EQ(rig.wires[2]->endpoint(2).Send({&spoof, 1}, &sent), CanStatus::kOk);
+  (void)rig.Step();
+  EXPECT_EQ(rig.hal->bus(2).counters().foreign_master, 1u);
+  EXPECT_EQ(rig.hal->bus(2).counters().last_foreign_id, 0x77Fu);
+}
+
 TEST(EmulatorWithHal, RandomDropsAreCountedOneForOneOverManyCycles) {
   testing::HalRig rig(DefaultHalConfig(), /*seed=*/12345);
   rig.BringUp();
