@@ -1,0 +1,97 @@
+#!/usr/bin/python3
+"""Hostile inputs to hyq-id (issue #13, item 5): each gives one
+clear message naming the input and a non-zero exit, never a crash, an abort or a hang, and
+hyq-id still solves the good lines around a bad one.
+
+usage: hostile_input_test.py CASE TOOL DATA_DIR WORK_DIR
+  CASE: id_lines | id_files
+Prints PASS at the end; any failed check exits 1 with the tool's output.
+"""
+import os
+import subprocess
+import sys
+
+failures = []
+
+
+def run(argv, timeout=60):
+    """(exit status, stdout + stderr); a signal shows as -N, a hang as 'timeout'."""
+    try:
+        p = subprocess.run(argv, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+                           timeout=timeout)
+    except subprocess.TimeoutExpired:
+        return "timeout", ""
+    return p.returncode, p.stdout.decode(errors="replace")
+
+
+def check(what, ok, detail=""):
+    print("%s: %s" % ("ok  " if ok else "FAIL", what))
+    if not ok:
+        failures.append(what)
+        print(detail)
+
+
+def expect(what, argv, code, *pieces, timeout=60):
+    rc, out = run(argv, timeout)
+    check("%s: exit %s (found %s)" % (what, code, rc), rc == code, out)
+    for piece in pieces:
+        check("%s: says %r" % (what, piece), piece in out, out)
+    return out
+
+
+def write(path, text):
+    with open(path, "w") as f:
+        f.write(text)
+    return path
+
+
+def deep(n):
+    return "[" * n + "]" * n
+
+
+def id_lines(tool, data, work):
+    good = open(os.path.join(data, "id_two_lines.jsonl")).read().splitlines()
+    bad_number = good[0].replace('"h":', '"h":1e999,"x":', 1)
+    lines = [good[0], bad_number, deep(100000), "[" + "1," * 600000 + "1]", good[1],
+             '{"q": "' + "[" * 1000 + '"}']
+    src = write(os.path.join(work, "hostile.jsonl"), "\n".join(lines) + "\n")
+    out_path = os.path.join(work, "hostile.out.jsonl")
+    # before: the 1e999 line aborted hyq-id (uncaught out_of_range) and every later line was lost;
+    # the deep line segfaulted
+    expect("hyq-id on bad lines among good ones", [tool, src, out_path], 1,
+           "hostile.jsonl:2: not valid JSON", "1e999",
+           "hostile.jsonl:3: expected arrays and objects nested at most 64 deep, found more",
+           "hostile.jsonl:4: expected a line of at most 1048576 bytes, found a longer one",
+           "hostile.jsonl:6: \"q\": expected an array of 19 numbers",
+           "2 solved (0 fell back), 4 bad line(s)")
+    with open(out_path) as f:
+        check("both good lines solved", len(f.read().splitlines()) == 2)
+
+
+def id_files(tool, data, work):
+    src = os.path.join(data, "id_two_lines.jsonl")
+    # before: read /dev/zero until bad_alloc (or the OOM killer)
+    expect("hyq-id --urdf /dev/zero", [tool, "--urdf", "/dev/zero", src, os.devnull], 2,
+           "--urdf /dev/zero: expected a regular file, found a character device", timeout=20)
+    expect("hyq-id --urdf DIR", [tool, "--urdf", work, src, os.devnull], 2,
+           "expected a regular file, found a directory")
+    # before: a directory read as an empty file, exit 0
+    expect("hyq-id on a directory", [tool, work, os.devnull], 2,
+           work + ": expected a regular file, found a directory")
+    expect("hyq-id on /dev/zero", [tool, "/dev/zero", os.devnull], 2,
+           "/dev/zero: expected a regular file, found a character device", timeout=20)
+
+
+def main():
+    case, tool, data, work = sys.argv[1:5]
+    os.makedirs(work, exist_ok=True)
+    {"id_lines": id_lines, "id_files": id_files}[case](tool, data, work)
+    if failures:
+        print("%d check(s) failed" % len(failures))
+        return 1
+    print("PASS")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
