@@ -1,10 +1,10 @@
 #!/usr/bin/python3
-"""Hostile inputs to hyq-id (issue #13, item 5): each gives one
+"""Hostile inputs to hyq-id and hyq-qp-solve (issue #13, item 5): each gives one
 clear message naming the input and a non-zero exit, never a crash, an abort or a hang, and
 hyq-id still solves the good lines around a bad one.
 
 usage: hostile_input_test.py CASE TOOL DATA_DIR WORK_DIR
-  CASE: id_lines | id_files
+  CASE: id_lines | id_files | qp_files
 Prints PASS at the end; any failed check exits 1 with the tool's output.
 """
 import os
@@ -82,10 +82,39 @@ def id_files(tool, data, work):
            "/dev/zero: expected a regular file, found a character device", timeout=20)
 
 
+def qp_files(tool, data, work):
+    def f(name, text):
+        return write(os.path.join(work, name), text)
+
+    # before: abort (uncaught out_of_range), SIGSEGV, abort (ios failure), "optimal" with x null
+    expect("1e999", [tool, f("big.json", '{"H": [[1e999]], "g": [1]}')], 2,
+           "big.json: not valid JSON", "1e999")
+    expect("deep nesting", [tool, f("deep.json", deep(100000))], 2,
+           "deep.json: expected arrays and objects nested at most 64 deep, found more")
+    expect("deep nesting inside a key", [tool, f("deep2.json", '{"H": ' + deep(65) + '}')], 2,
+           "nested at most 64 deep")
+    expect("a directory", [tool, work], 2, work + ": expected a regular file, found a directory")
+    expect("/dev/zero", [tool, "/dev/zero"], 2,
+           "/dev/zero: expected a regular file, found a character device", timeout=20)
+    expect("H = diag(1e308)", [tool, f("hbig.json", '{"H": [[1e308, 0], [0, 1e308]], "g": [1, 1]}')],
+           2, 'hbig.json: key "H[0][0]": expected a number of magnitude at most 1e150, found number 1e+308')
+    expect("g = ±1e308", [tool, f("gbig.json", '{"H": [[1, 0], [0, 1]], "g": [1e308, -1e308]}')],
+           2, 'key "g[0]": expected a number of magnitude at most 1e150')
+    expect("ub = 1e200", [tool, f("ubbig.json", '{"H": [[1]], "g": [1], "ub": [1e200]}')], 2,
+           'key "ub[0]": expected a number of magnitude at most 1e150, or null for an infinite bound')
+    # within the limits, but x = -g/H = -1e400 overflows: the solver must not call that optimal
+    out = expect("x overflows", [tool, f("xbig.json", '{"H": [[1e-300]], "g": [1e100]}')], 1,
+                 '"status": "bad_input"')
+    check("x overflows: not optimal", '"optimal"' not in out, out)
+    expect("the example still solves", [tool, os.path.join(data, "..", "..", "qp", "data",
+                                                            "tool_example.json")], 0,
+           '"status": "optimal"')
+
+
 def main():
     case, tool, data, work = sys.argv[1:5]
     os.makedirs(work, exist_ok=True)
-    {"id_lines": id_lines, "id_files": id_files}[case](tool, data, work)
+    {"id_lines": id_lines, "id_files": id_files, "qp_files": qp_files}[case](tool, data, work)
     if failures:
         print("%d check(s) failed" % len(failures))
         return 1
