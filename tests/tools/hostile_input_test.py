@@ -1,10 +1,10 @@
 #!/usr/bin/python3
-"""Hostile inputs to hyq-id and hyq-qp-solve (issue #13, item 5): each gives one
+"""Hostile inputs to hyq-id, hyq-qp-solve and hyq-candump (issue #13, item 5): each gives one
 clear message naming the input and a non-zero exit, never a crash, an abort or a hang, and
 hyq-id still solves the good lines around a bad one.
 
 usage: hostile_input_test.py CASE TOOL DATA_DIR WORK_DIR
-  CASE: id_lines | id_files | qp_files
+  CASE: id_lines | id_files | qp_files | candump_dev_zero
 Prints PASS at the end; any failed check exits 1 with the tool's output.
 """
 import os
@@ -111,10 +111,18 @@ def qp_files(tool, data, work):
            '"status": "optimal"')
 
 
+def candump_dev_zero(tool, data, work):
+    # before: read /dev/zero into memory until bad_alloc (or the OOM killer)
+    expect("hyq-candump replay:/dev/zero", [tool, "-n", "1", "-t", "5", "-o", os.devnull,
+                                            "replay:/dev/zero"], 1,
+           "candump log /dev/zero: expected a regular file, found a character device", timeout=20)
+
+
 def main():
     case, tool, data, work = sys.argv[1:5]
     os.makedirs(work, exist_ok=True)
-    {"id_lines": id_lines, "id_files": id_files, "qp_files": qp_files}[case](tool, data, work)
+    {"id_lines": id_lines, "id_files": id_files, "qp_files": qp_files,
+     "candump_dev_zero": candump_dev_zero}[case](tool, data, work)
     if failures:
         print("%d check(s) failed" % len(failures))
         return 1
