@@ -126,8 +126,11 @@ IdRecord ParseIdRecord(std::string_view line) {
   json j;
   try {
     j = json::parse(line);
+  } catch (const json::out_of_range& e) {
+    // 1e999 is valid JSON, but no double holds it
+    throw IdRecordError(std::string("expected numbers within the range of a double, found: ") +
+                        e.what());
   } catch (const json::exception& e) {
-    // parse_error, and out_of_range for a number beyond double (1e999)
     throw IdRecordError(std::string("not valid JSON: ") + e.what());
   }
   try {

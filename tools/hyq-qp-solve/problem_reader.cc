@@ -151,8 +151,11 @@ qp::Problem ParseProblem(std::string_view text, const std::string& name) {
   json root;
   try {
     root = json::parse(text);
+  } catch (const json::out_of_range& e) {
+    // 1e999 is valid JSON, but no double holds it
+    throw InputError(name + ": expected numbers within the range of a double, found: " +
+                     e.what());
   } catch (const json::exception& e) {
-    // parse_error, and out_of_range for a number beyond double (1e999)
     throw InputError(name + ": not valid JSON: " + e.what());
   }
   try {
