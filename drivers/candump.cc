@@ -1,9 +1,10 @@
 #include "drivers/candump.h"
 
+#include <sys/stat.h>
+
 #include <cerrno>
 #include <cstring>
 #include <fstream>
-#include <sstream>
 #include <utility>
 
 #include "drivers/channel_error.h"
@@ -286,12 +287,25 @@ CandumpLog ReadCandumpText(std::string_view text, std::string_view source_name,
 }
 
 CandumpLog ReadCandumpFile(const std::string& path, MalformedLines policy) {
+  // the whole file is held in memory: /dev/zero (or any device) would never end
+  struct stat st {};
+  if (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISFIFO(st.st_mode))
+    throw ChannelError("candump log " + path + ": expected a regular file, found " +
+                       (S_ISDIR(st.st_mode)   ? "a directory"
+                        : S_ISCHR(st.st_mode) ? "a character device"
+                                              : "another kind of file"));
   std::ifstream in(path, std::ios::binary);
   if (!in) throw ChannelError(SystemErrorText("candump log " + path + ": cannot open", errno));
-  std::ostringstream all;
-  all << in.rdbuf();
+  std::string all;
+  char buf[65536];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    if (all.size() + static_cast<std::size_t>(in.gcount()) > kMaxCandumpFileBytes)
+      throw ChannelError("candump log " + path + ": expected at most " +
+                         std::to_string(kMaxCandumpFileBytes >> 20) + " MiB, found more");
+    all.append(buf, static_cast<std::size_t>(in.gcount()));
+  }
   if (in.bad()) throw ChannelError("candump log " + path + ": read error");
-  return ReadCandumpText(all.str(), path, policy);
+  return ReadCandumpText(all, path, policy);
 }
 
 // ---- writer ----

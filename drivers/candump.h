@@ -61,7 +61,11 @@ struct CandumpLog {
 
 enum class MalformedLines { kThrow, kSkipAndCount };
 
-/// Reads a log file. Blank lines are skipped. With kThrow the first malformed line throws
+/// The largest log ReadCandumpFile() reads (it holds the whole text, then the records).
+inline constexpr std::size_t kMaxCandumpFileBytes = std::size_t{2} << 30;
+
+/// Reads a log file (a regular file or a pipe, at most kMaxCandumpFileBytes). Blank lines are
+/// skipped. With kThrow the first malformed line throws
 /// ChannelError("<path>:<line>: <why>: '<line>'"); with kSkipAndCount it is counted and skipped.
 /// A file that cannot be opened always throws.
 CandumpLog ReadCandumpFile(const std::string& path,

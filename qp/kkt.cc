@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 
 #include "qp/problem.h"
 #include "qp/workspace.h"
@@ -36,6 +37,9 @@ const char* ToString(Status status) noexcept {
 }
 
 double KktResiduals::max() const noexcept {
+  // std::max drops a NaN (it compares false), which would then pass for a small residual
+  if (std::isnan(stationarity + primal + dual + complementarity))
+    return std::numeric_limits<double>::quiet_NaN();
   return std::max({stationarity, primal, dual, complementarity});
 }
 

@@ -61,7 +61,8 @@ enum class [[nodiscard]] Status : std::uint8_t {
   kUnbounded,       ///< the objective is unbounded below along Solution::direction
   kIterationLimit,  ///< Budget::max_iterations reached; Solution holds the best iterate
   kDeadline,        ///< Budget::deadline passed; Solution holds the best iterate
-  kBadInput,        ///< NaN/Inf in H, g or A, NaN bound, wrong sizes, lb > ub, +inf lower bound
+  kBadInput,        ///< NaN/Inf in H, g or A, NaN bound, wrong sizes, lb > ub, +inf lower bound,
+                    ///< or data so large that x or the objective overflow
 };
 
 /// "optimal", "infeasible", ... (static strings, for tools and logs outside the cycle).

@@ -121,6 +121,20 @@ void SizeSolution(Solution* sol, int n, int m) {
   sol->active_constraints.fill(Active::kInactive);
 }
 
+// 0 · v is NaN exactly when v is NaN or ±Inf: one pass per array, four partial sums
+bool AllFinite(const double* v, Eigen::Index size) noexcept {
+  double z0 = 0.0, z1 = 0.0, z2 = 0.0, z3 = 0.0;
+  Eigen::Index i = 0;
+  for (; i + 4 <= size; i += 4) {
+    z0 += 0.0 * v[i];
+    z1 += 0.0 * v[i + 1];
+    z2 += 0.0 * v[i + 2];
+    z3 += 0.0 * v[i + 3];
+  }
+  for (; i < size; ++i) z0 += 0.0 * v[i];
+  return (z0 + z1) + (z2 + z3) == 0.0;
+}
+
 }  // namespace
 
 bool IsWellFormed(const Problem& p) noexcept {
@@ -128,20 +142,8 @@ bool IsWellFormed(const Problem& p) noexcept {
   if (n < 1 || p.H.cols() != n || p.g.size() != n || p.lb.size() != n || p.ub.size() != n)
     return false;
   if ((m > 0 && p.A.cols() != n) || p.lbA.size() != m || p.ubA.size() != m) return false;
-  // 0 · v is NaN exactly when v is NaN or ±Inf: one pass per array, four partial sums
-  auto finite = [](const double* v, Eigen::Index size) {
-    double z0 = 0.0, z1 = 0.0, z2 = 0.0, z3 = 0.0;
-    Eigen::Index i = 0;
-    for (; i + 4 <= size; i += 4) {
-      z0 += 0.0 * v[i];
-      z1 += 0.0 * v[i + 1];
-      z2 += 0.0 * v[i + 2];
-      z3 += 0.0 * v[i + 3];
-    }
-    for (; i < size; ++i) z0 += 0.0 * v[i];
-    return (z0 + z1) + (z2 + z3) == 0.0;
-  };
-  if (!finite(p.H.data(), n * n) || !finite(p.g.data(), n) || !finite(p.A.data(), m * n))
+  if (!AllFinite(p.H.data(), n * n) || !AllFinite(p.g.data(), n) ||
+      !AllFinite(p.A.data(), m * n))
     return false;
   // symmetry, relative to max |H_ij|: columns against rows, independent per column
   double hmax = 0.0, asym = 0.0;
@@ -398,6 +400,11 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
     step_prev = step;
   }
   sol->objective = Objective(p, sol->x);
+  // finite data can still overflow (H = diag(1e308), g = 1e308): an x the caller would use must
+  // be finite, else the data were unusable
+  if (status != Status::kInfeasible &&
+      !(AllFinite(sol->x.data(), n) && std::isfinite(sol->objective)))
+    status = Status::kBadInput;
   return finish(status);
 }
 

@@ -1,5 +1,6 @@
 #include "servo/control/id_record.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include <nlohmann/json.hpp>
@@ -37,21 +38,39 @@ void Array(const json& j, const std::string& key, Vec* out) {
   for (int i = 0; i < n; ++i) (*out)(i) = Number(v[i], key + "[" + std::to_string(i) + "]");
 }
 
+// The deepest nesting of arrays and objects in `text` (outside strings), counted up to `limit` + 1:
+// nlohmann's dump() and destructor recurse once per level, so 100 000 '[' overflow the stack.
+int NestingDepth(std::string_view text, int limit) {
+  int depth = 0, deepest = 0;
+  bool in_string = false, escaped = false;
+  for (const char c : text) {
+    if (in_string) {
+      if (escaped) {
+        escaped = false;
+      } else if (c == '\\') {
+        escaped = true;
+      } else if (c == '"') {
+        in_string = false;
+      }
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      deepest = std::max(deepest, ++depth);
+      if (deepest > limit) break;
+    } else if (c == ']' || c == '}') {
+      --depth;
+    }
+  }
+  return deepest;
+}
+
 json Vector(const auto& v) {
   json a = json::array();
   for (int i = 0; i < v.size(); ++i) a.push_back(v(i));
   return a;
 }
 
-}  // namespace
-
-IdRecord ParseIdRecord(std::string_view line) {
-  json j;
-  try {
-    j = json::parse(line);
-  } catch (const json::parse_error& e) {
-    throw IdRecordError(std::string("not valid JSON: ") + e.what());
-  }
+IdRecord FromJson(const json& j) {
   if (!j.is_object()) Fail("(line)", "a JSON object", j);
   IdRecord r;
   IdInput& in = r.input;
@@ -93,6 +112,32 @@ IdRecord ParseIdRecord(std::string_view line) {
     Fail("controller", "\"two_stage\", \"stage1\" or \"noslip\"", c);
   r.controller = *kind;
   return r;
+}
+
+}  // namespace
+
+IdRecord ParseIdRecord(std::string_view line) {
+  if (line.size() > kMaxIdRecordBytes)
+    throw IdRecordError("expected a line of at most " + std::to_string(kMaxIdRecordBytes) +
+                        " bytes, found " + std::to_string(line.size()));
+  if (NestingDepth(line, kMaxIdRecordDepth) > kMaxIdRecordDepth)
+    throw IdRecordError("expected arrays and objects nested at most " +
+                        std::to_string(kMaxIdRecordDepth) + " deep, found more");
+  json j;
+  try {
+    j = json::parse(line);
+  } catch (const json::out_of_range& e) {
+    // 1e999 is valid JSON, but no double holds it
+    throw IdRecordError(std::string("expected numbers within the range of a double, found: ") +
+                        e.what());
+  } catch (const json::exception& e) {
+    throw IdRecordError(std::string("not valid JSON: ") + e.what());
+  }
+  try {
+    return FromJson(j);
+  } catch (const json::exception& e) {
+    throw IdRecordError(std::string("unexpected JSON content: ") + e.what());
+  }
 }
 
 std::string FormatIdRecord(const IdRecord& record, const IdOutput* result) {

@@ -11,6 +11,7 @@
 // Reading and writing allocate: this is for tools and non-real-time threads, never the cycle.
 #pragma once
 
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -18,6 +19,11 @@
 #include "servo/control/controller.h"
 
 namespace hyq::servo {
+
+/// Limits on one line, far above a real record (about 2 kB, nested 3 deep): a longer or deeper
+/// line is malformed, not a reason to exhaust memory or the stack.
+inline constexpr std::size_t kMaxIdRecordBytes = std::size_t{1} << 20;
+inline constexpr int kMaxIdRecordDepth = 64;
 
 /// A malformed line. what() names the key, what was expected and what was found.
 class IdRecordError : public std::runtime_error {
@@ -30,7 +36,7 @@ struct IdRecord {
   ControllerKind controller = ControllerKind::kTwoStageId;
 };
 
-/// Parses one line. @throws IdRecordError
+/// Parses one line. @throws IdRecordError (and nothing else but std::bad_alloc)
 IdRecord ParseIdRecord(std::string_view line);
 
 /// One line (no newline) for `record`, with "result" when `result` is given.

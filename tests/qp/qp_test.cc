@@ -445,6 +445,45 @@ TEST(QpStatus, BadInput) {
   EXPECT_STREQ(ToString(Status::kBadInput), "bad_input");
 }
 
+// Finite data whose solve overflows: before, H = diag(1e308) and H = 1e-300, g = 1e100 came back
+// kOptimal with x NaN or ±Inf (a NaN residual passed the KKT test, std::max drops it).
+TEST(QpStatus, NeverOptimalWithANonFiniteAnswer) {
+  Solver solver;
+  Solution s;
+  auto expect_finite_or_bad = [&](const Problem& p, const char* what) {
+    const Status st = solver.Solve(p, Budget{}, &s);
+    EXPECT_EQ(st, s.status) << what;
+    if (st == Status::kOptimal || st == Status::kIterationLimit || st == Status::kDeadline) {
+      EXPECT_TRUE(s.x.allFinite()) << what << ": " << ToString(st);
+      EXPECT_TRUE(std::isfinite(s.objective)) << what << ": " << ToString(st);
+    }
+  };
+  Problem p;
+  p.Resize(2, 0);
+  p.H.diagonal().setConstant(1e308);
+  p.g.setConstant(1.0);
+  expect_finite_or_bad(p, "H = diag(1e308)");
+  p.lb.setConstant(-1.0);
+  expect_finite_or_bad(p, "H = diag(1e308), lb = -1");
+  p.Resize(2, 0);
+  p.H.setIdentity();
+  p.g << 1e308, -1e308;
+  expect_finite_or_bad(p, "g = ±1e308");
+  p.Resize(1, 0);
+  p.H(0, 0) = 1e-300;
+  p.g(0) = 1e100;
+  expect_finite_or_bad(p, "x = -1e400");
+  EXPECT_EQ(s.status, Status::kBadInput);
+  p.Resize(2, 1);
+  p.H.setIdentity();
+  p.A << 1e308, 1e308;
+  p.lbA(0) = 1.0;
+  expect_finite_or_bad(p, "A x overflows");
+  KktResiduals k;
+  k.primal = std::nan("");
+  EXPECT_TRUE(std::isnan(k.max()));  // a NaN residual is never "within tolerance"
+}
+
 TEST(QpStatus, IterationLimitAndDeadlineReturnTheLastIterate) {
   std::mt19937_64 rng(11);
   Solver solver;

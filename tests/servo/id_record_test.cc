@@ -85,6 +85,26 @@ TEST(IdRecord, MalformedLinesNameTheKey) {
   EXPECT_THAT(ErrorOf(with("qdd_des", qdd)), HasSubstr("qdd_des[4]\": expected a number, found \"fast\""));
 }
 
+// before: 1e999 escaped as nlohmann's out_of_range (hyq-id aborted, losing every later line) and
+// 100 000 '[' overflowed the stack
+TEST(IdRecord, HostileLinesAreIdRecordErrors) {
+  std::string line = FormatIdRecord(Example(3));
+  const auto h = line.find("\"h\":");
+  ASSERT_NE(h, std::string::npos);
+  EXPECT_THAT(ErrorOf(line.substr(0, h) + "\"h\":1e999,\"x\":" + line.substr(h + 4)),
+              HasSubstr("expected numbers within the range of a double, found: "));
+  EXPECT_THAT(ErrorOf(line.substr(0, h) + "\"h\":-1e999,\"x\":" + line.substr(h + 4)),
+              HasSubstr("-1e999"));
+  EXPECT_THAT(ErrorOf(std::string(100000, '[') + std::string(100000, ']')),
+              HasSubstr("nested at most 64 deep, found more"));
+  EXPECT_THAT(ErrorOf("{\"q\": " + std::string(65, '[') + std::string(65, ']') + "}"),
+              HasSubstr("nested at most 64 deep"));
+  // brackets inside a string are text, not nesting
+  EXPECT_THAT(ErrorOf("{\"q\": \"" + std::string(1000, '[') + "\\\"\"}"),
+              HasSubstr("\"q\": expected an array of 19 numbers"));
+  EXPECT_THAT(ErrorOf(std::string(kMaxIdRecordBytes + 1, ' ')), HasSubstr("at most 1048576 bytes"));
+}
+
 TEST(HyqIdTool, SolvesGoodLinesAndReportsBadOnes) {
   const auto dir = std::filesystem::temp_directory_path() / ("hyq_id_test_" + std::to_string(getpid()));
   std::filesystem::create_directories(dir);

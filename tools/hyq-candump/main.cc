@@ -179,7 +179,7 @@ int main(int argc, char** argv) {
     auto ch = hyq::drivers::OpenChannel(parsed);
     return play_path.empty() ? Record(*ch, out_path, name, count, seconds)
                              : Play(*ch, play_path, name, as_fast);
-  } catch (const hyq::drivers::ChannelError& e) {
+  } catch (const std::exception& e) {  // ChannelError, or bad_alloc for a log beyond memory
     std::fprintf(stderr, "hyq-candump: %s\n", e.what());
     return 1;
   }

@@ -1,9 +1,11 @@
 // hyq-id: solves ID problem files (servo/control/id_record.h) line by line.
 #include <chrono>
-#include <iostream>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
+#include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -24,7 +26,7 @@ constexpr std::string_view kUsage =
     "   \"normal\": [[3] x 4] (optional), \"h\": s, \"controller\": \"two_stage\"|\"stage1\"|\"noslip\"}\n"
     "and writes it to OUT.jsonl with \"result\" added (torques in N m, impulses in N s, stage\n"
     "statuses, kinetic energy, fallback). A bad line is reported on stderr with its line number\n"
-    "and skipped; the others are still solved. Consecutive lines warm-start the QPs, as in the\n"
+    "and skipped (so is a line over 1 MiB); the others are still solved. Consecutive lines warm-start the QPs, as in the\n"
     "servo loop. OUT.jsonl may be - for standard output.\n"
     "\n"
     "  --urdf FILE    the robot model (default: " HYQ_DEFAULT_URDF ")\n"
@@ -36,6 +38,46 @@ constexpr std::string_view kUsage =
 [[noreturn]] void Usage(const std::string& msg) {
   std::fprintf(stderr, "hyq-id: %s\n\n%s", msg.c_str(), kUsage.data());
   std::exit(2);
+}
+
+const char* Kind(std::filesystem::file_type t) {
+  switch (t) {
+    case std::filesystem::file_type::directory: return "a directory";
+    case std::filesystem::file_type::character: return "a character device";
+    case std::filesystem::file_type::block: return "a block device";
+    case std::filesystem::file_type::socket: return "a socket";
+    case std::filesystem::file_type::not_found: return "nothing (no such file)";
+    default: return "not a regular file";
+  }
+}
+
+// An empty string when `path` is a file to read (regular, or a pipe when `pipe_ok`), else why
+// not: /dev/zero would never end and a directory reads as an empty file.
+std::string NotAFile(const std::string& path, bool pipe_ok) {
+  std::error_code ec;
+  const auto t = std::filesystem::status(path, ec).type();
+  if (t == std::filesystem::file_type::regular ||
+      (pipe_ok && t == std::filesystem::file_type::fifo))
+    return {};
+  return path + ": expected a regular file, found " + Kind(t);
+}
+
+// std::getline, but a line longer than `max` is skipped to its end (*too_long set) rather than
+// held in memory whole.
+bool ReadLine(std::istream& in, std::size_t max, std::string* line, bool* too_long) {
+  line->clear();
+  *too_long = false;
+  std::streambuf* buf = in.rdbuf();
+  for (;;) {
+    const int c = buf->sbumpc();
+    if (c == std::char_traits<char>::eof()) return !line->empty() || *too_long;
+    if (c == '\n') return true;
+    if (line->size() < max) {
+      line->push_back(static_cast<char>(c));
+    } else {
+      *too_long = true;
+    }
+  }
 }
 
 }  // namespace
@@ -68,11 +110,20 @@ int main(int argc, char** argv) {
   }
   if (out_path.empty()) Usage("expected IN.jsonl and OUT.jsonl");
 
+  // the loader reads the whole file into memory: --urdf /dev/zero would end in bad_alloc
+  if (const std::string why = NotAFile(urdf, false); !why.empty()) {
+    std::fprintf(stderr, "hyq-id: --urdf %s\n", why.c_str());
+    return 2;
+  }
   dynamics::Model model;
   try {
     model = dynamics::LoadModelFromUrdf(urdf);
-  } catch (const dynamics::ModelError& e) {
+  } catch (const std::exception& e) {
     std::fprintf(stderr, "hyq-id: %s\n", e.what());
+    return 2;
+  }
+  if (const std::string why = NotAFile(in_path, true); !why.empty()) {
+    std::fprintf(stderr, "hyq-id: %s\n", why.c_str());
     return 2;
   }
   std::ifstream in(in_path);
@@ -100,14 +151,21 @@ int main(int argc, char** argv) {
 
   long line_no = 0, solved = 0, bad = 0, fallbacks = 0;
   std::string line;
+  bool too_long = false;
   const auto t0 = std::chrono::steady_clock::now();
-  while (std::getline(in, line)) {
+  while (ReadLine(in, servo::kMaxIdRecordBytes, &line, &too_long)) {
     ++line_no;
+    if (too_long) {
+      std::fprintf(stderr, "%s:%ld: expected a line of at most %zu bytes, found a longer one\n",
+                   in_path.c_str(), line_no, servo::kMaxIdRecordBytes);
+      ++bad;
+      continue;
+    }
     if (line.find_first_not_of(" \t\r") == std::string::npos) continue;
     servo::IdRecord rec;
     try {
       rec = servo::ParseIdRecord(line);
-    } catch (const servo::IdRecordError& e) {
+    } catch (const std::exception& e) {  // IdRecordError; anything else is reported the same way
       std::fprintf(stderr, "%s:%ld: %s\n", in_path.c_str(), line_no, e.what());
       ++bad;
       continue;

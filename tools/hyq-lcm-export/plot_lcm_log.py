@@ -29,6 +29,8 @@ def read(path):
         return None
     with open(path, newline="") as f:
         rows = list(csv.reader(f))
+    if not rows:  # an empty file (an export cut short): no figure, not a traceback
+        return None
     names = [h.rsplit(" (", 1)[0] for h in rows[0]]
     cols = {n: [] for n in names}
     for r in rows[1:]:

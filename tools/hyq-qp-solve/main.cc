@@ -8,18 +8,17 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
+#include <exception>
 #include <iostream>
-#include <stdexcept>
 #include <string>
 
 #include <nlohmann/json.hpp>
 
 #include "qp/solver.h"
+#include "tools/hyq-qp-solve/problem_reader.h"
 
 namespace {
 
-using hyq::qp::kInf;
 using nlohmann::json;
 
 constexpr const char* kUsage = R"(usage: hyq-qp-solve FILE.json
@@ -42,56 +41,13 @@ The result: {"status": "optimal" | "infeasible" | "unbounded" | "iteration_limit
 certificate), "active_bounds", "active_constraints" (-1 lower, 1 upper, 2 equality, 0 inactive),
 "direction" (for "unbounded")}.
 
+Every number in H, g, A and the bounds has magnitude at most 1e150 (larger would let H x
+overflow); a file is at most 16 MiB, nested at most 64 deep, and a regular file or a pipe.
+
 Exit status: 0 optimal; 1 any other solver status (the result is still printed);
 2 usage error or malformed file (the message names the file, the key, what was expected and
 what was found).
 )";
-
-// Thrown for a malformed file; main() prints "hyq-qp-solve: <what>" and exits with 2.
-class InputError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-std::string Found(const json& v) {
-  std::string s = v.dump();
-  if (s.size() > 40) s = s.substr(0, 37) + "...";
-  return std::string(v.type_name()) + " " + s;
-}
-
-class Reader {
- public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void Fail(const std::string& key, const std::string& expected,
-                         const json& found) const {
-    throw InputError(file_ + ": key \"" + key + "\": expected " + expected + ", found " +
-                     Found(found));
-  }
-
-  double Number(const json& v, const std::string& key, bool null_is = false,
-                double null_value = 0.0) const {
-    if (null_is && v.is_null()) return null_value;
-    if (!v.is_number())
-      Fail(key, null_is ? "a number or null" : "a number", v);
-    return v.get<double>();
-  }
-
-  // an array of `size` numbers (size < 0: any size up to max_size)
-  template <class Vec>
-  void Vector(const json& v, const std::string& key, int size, Vec* out, bool null_is = false,
-              double null_value = 0.0) const {
-    const std::string what = "an array of " + std::to_string(size) +
-                             (null_is ? " numbers or nulls" : " numbers");
-    if (!v.is_array() || static_cast<int>(v.size()) != size) Fail(key, what, v);
-    out->resize(size);
-    for (int i = 0; i < size; ++i)
-      (*out)(i) = Number(v[i], key + "[" + std::to_string(i) + "]", null_is, null_value);
-  }
-
- private:
-  std::string file_;
-};
 
 json Finite(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
 
@@ -100,68 +56,6 @@ json Array(const Vec& v, int size) {
   json a = json::array();
   for (int i = 0; i < size; ++i) a.push_back(Finite(v(i)));
   return a;
-}
-
-hyq::qp::Problem ReadProblem(const std::string& file) {
-  std::ifstream in(file);
-  if (!in) throw InputError(file + ": cannot open the file");
-  json root;
-  try {
-    root = json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw InputError(file + ": not valid JSON: " + e.what());
-  }
-  const Reader r(file);
-  if (!root.is_object())
-    throw InputError(file + ": expected a JSON object at the top level, found " + Found(root));
-  for (const auto& [key, value] : root.items()) {
-    static const char* kKeys[] = {"H", "g", "A", "lbA", "ubA", "lb", "ub"};
-    bool known = false;
-    for (const char* k : kKeys) known = known || key == k;
-    if (!known)
-      throw InputError(file + ": unknown key \"" + key +
-                       "\": expected one of H, g, A, lbA, ubA, lb, ub");
-  }
-  if (!root.contains("H")) throw InputError(file + ": key \"H\" is missing (required)");
-  if (!root.contains("g")) throw InputError(file + ": key \"g\" is missing (required)");
-  const json& H = root["H"];
-  const int n = H.is_array() ? static_cast<int>(H.size()) : -1;
-  if (n < 1 || n > hyq::qp::kMaxVariables)
-    r.Fail("H", "an array of 1 to " + std::to_string(hyq::qp::kMaxVariables) +
-                    " rows (arrays of numbers)", H);
-  int m = 0;
-  if (root.contains("A")) {
-    const json& A = root["A"];
-    m = A.is_array() ? static_cast<int>(A.size()) : -1;
-    if (m < 0 || m > hyq::qp::kMaxConstraints)
-      r.Fail("A", "an array of 0 to " + std::to_string(hyq::qp::kMaxConstraints) +
-                      " rows (arrays of " + std::to_string(n) + " numbers)", A);
-  } else if (root.contains("lbA") || root.contains("ubA")) {
-    throw InputError(file + ": key \"lbA\"/\"ubA\" given without \"A\"");
-  }
-  hyq::qp::Problem p;
-  p.Resize(n, m);
-  for (int i = 0; i < n; ++i) {
-    const std::string key = "H[" + std::to_string(i) + "]";
-    if (!H[i].is_array() || static_cast<int>(H[i].size()) != n)
-      r.Fail(key, "an array of " + std::to_string(n) + " numbers (H is n × n)", H[i]);
-    for (int j = 0; j < n; ++j)
-      p.H(i, j) = r.Number(H[i][j], key + "[" + std::to_string(j) + "]");
-  }
-  r.Vector(root["g"], "g", n, &p.g);
-  if (root.contains("lb")) r.Vector(root["lb"], "lb", n, &p.lb, true, -kInf);
-  if (root.contains("ub")) r.Vector(root["ub"], "ub", n, &p.ub, true, kInf);
-  for (int k = 0; k < m; ++k) {
-    const json& row = root["A"][k];
-    const std::string key = "A[" + std::to_string(k) + "]";
-    if (!row.is_array() || static_cast<int>(row.size()) != n)
-      r.Fail(key, "an array of " + std::to_string(n) + " numbers (A has n columns)", row);
-    for (int j = 0; j < n; ++j)
-      p.A(k, j) = r.Number(row[j], key + "[" + std::to_string(j) + "]");
-  }
-  if (root.contains("lbA")) r.Vector(root["lbA"], "lbA", m, &p.lbA, true, -kInf);
-  if (root.contains("ubA")) r.Vector(root["ubA"], "ubA", m, &p.ubA, true, kInf);
-  return p;
 }
 
 json ToJson(const hyq::qp::Problem& p, const hyq::qp::Solution& s) {
@@ -206,8 +100,8 @@ int main(int argc, char** argv) {
   const std::string file = argv[1];
   hyq::qp::Problem problem;
   try {
-    problem = ReadProblem(file);
-  } catch (const InputError& e) {
+    problem = hyq::qp_solve::ReadProblemFile(file);
+  } catch (const std::exception& e) {  // InputError, or bad_alloc
     std::fprintf(stderr, "hyq-qp-solve: %s\n", e.what());
     return 2;
   }
