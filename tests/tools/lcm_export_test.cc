@@ -18,6 +18,7 @@
 #include <unistd.h>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
+#include "hyq_lcm/lcmt_hyq_signed_command.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_joint_state.hpp"
 #include "tools/hyq-lcm-export/csv_rows.h"
@@ -184,6 +185,11 @@ TEST(LcmCsvRows, LengthChecksMatchTheGeneratedCode) {
     c.mu.assign(static_cast<std::size_t>(c.num_feet), 0.5);
     c.controller = s;
     messages.push_back(Encode(c));
+    hyq_lcm::lcmt_hyq_signed_command sc{};
+    sc.sender = s;
+    sc.command = Encode(c);
+    sc.command_size = static_cast<std::int32_t>(sc.command.size());
+    messages.push_back(Encode(sc));
   }
   messages.push_back(JointState(3));
   for (const Bytes& m : messages) {

@@ -8,6 +8,7 @@
 
 #include "hyq_lcm/lcmt_hyq_base_state.hpp"
 #include "hyq_lcm/lcmt_hyq_command.hpp"
+#include "hyq_lcm/lcmt_hyq_signed_command.hpp"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
@@ -150,6 +151,7 @@ void Visit(const hyq_lcm::lcmt_hyq_health& m, Csv& c) {
     c.Field(p + "emcy", "count", h.emcy);
     c.Field(p + "bus_off", "count", h.bus_off);
     c.Field(p + "tx_failed", "count", h.tx_failed);
+    c.Field(p + "driver_dropped", "count", h.driver_dropped);
     c.Field(p + "wkc_expected", "count", h.wkc_expected);
     c.Field(p + "wkc_received", "count", h.wkc_received);
   }
@@ -165,6 +167,8 @@ void Visit(const hyq_lcm::lcmt_hyq_health& m, Csv& c) {
   c.Field("commands_accepted", "count", m.commands_accepted);
   c.Field("commands_rejected", "count", m.commands_rejected);
   c.Field("commands_dropped", "count", m.commands_dropped);
+  c.Field("commands_unauthenticated", "count", m.commands_unauthenticated);
+  c.Field("commands_replayed", "count", m.commands_replayed);
 }
 void Visit(const hyq_lcm::lcmt_hyq_event& m, Csv& c) {
   c.Field("utime", "us", m.utime);
@@ -192,17 +196,27 @@ void Visit(const hyq_lcm::lcmt_hyq_command& m, Csv& c) {
   c.Field("kd_scale", "1", m.kd_scale);
 }
 
+// the envelope only: the command inside is opaque until the servo has checked its MAC
+void Visit(const hyq_lcm::lcmt_hyq_signed_command& m, Csv& c) {
+  c.Field("sender", "text", m.sender);
+  c.Field("command_size", "bytes", m.command_size);
+  char mac[2 * sizeof m.mac + 1];
+  for (std::size_t i = 0; i < sizeof m.mac; ++i) std::snprintf(mac + 2 * i, 3, "%02x", m.mac[i]);
+  c.Field("mac", "hex", std::string(mac));
+}
+
 // The encoding after the fingerprint of the types whose size varies, field by field as lcm-gen
 // writes it (lcmtypes/*.lcm). The generated decode trusts a string length (INT32_MIN copies 2 GB)
 // and an array count (-1 resizes to SIZE_MAX), so those are checked first; the other types have
 // fixed sizes, which the generated decode checks itself. tests/tools/lcm_export_test.cc keeps
 // these layouts equal to the generated code.
-enum class Wire : std::uint8_t { k1, k2, k8, kCount8, kDoubles, kString };
+enum class Wire : std::uint8_t { k1, k2, k8, kCount8, kCount32, kDoubles, kBytes, kMac, kString };
 constexpr Wire kEventLayout[] = {Wire::k8,      Wire::k8, Wire::k1,      Wire::k1,
                                  Wire::kString, Wire::kString, Wire::k2, Wire::kString,
                                  Wire::k2,      Wire::k2, Wire::kString};
 constexpr Wire kCommandLayout[] = {Wire::k8,      Wire::k8,      Wire::k1, Wire::kCount8,
                                    Wire::kDoubles, Wire::kString, Wire::k8, Wire::k8};
+constexpr Wire kSignedCommandLayout[] = {Wire::kString, Wire::kCount32, Wire::kBytes, Wire::kMac};
 
 template <class T>
 constexpr std::span<const Wire> kLayout{};
@@ -210,6 +224,8 @@ template <>
 constexpr std::span<const Wire> kLayout<hyq_lcm::lcmt_hyq_event> = kEventLayout;
 template <>
 constexpr std::span<const Wire> kLayout<hyq_lcm::lcmt_hyq_command> = kCommandLayout;
+template <>
+constexpr std::span<const Wire> kLayout<hyq_lcm::lcmt_hyq_signed_command> = kSignedCommandLayout;
 
 std::int32_t Be32(const std::uint8_t* b) {
   return static_cast<std::int32_t>((std::uint32_t{b[0]} << 24) | (std::uint32_t{b[1]} << 16) |
@@ -238,7 +254,16 @@ bool LengthsFit(std::span<const Wire> layout, std::span<const std::uint8_t> data
         count = ok ? static_cast<std::size_t>(n) : 0;
         break;
       }
-      case Wire::kDoubles: ok = take(8 * count); break;
+      case Wire::kCount32: {
+        ok = take(4);
+        const std::int32_t n = ok ? Be32(data.data() + pos - 4) : -1;
+        ok = n >= 0;
+        count = ok ? static_cast<std::size_t>(n) : 0;
+        break;
+      }
+      case Wire::kDoubles: ok = count <= data.size() / 8 && take(8 * count); break;
+      case Wire::kBytes: ok = take(count); break;
+      case Wire::kMac: ok = take(32); break;
       case Wire::kString: {
         // int32 length including the terminating NUL, then the bytes
         ok = take(4);
@@ -280,7 +305,7 @@ RowType Type(const char* name) {
 }  // namespace
 
 const RowType* FindRowType(std::span<const std::uint8_t> data) {
-  static const std::array<RowType, 8> kTypes = {
+  static const std::array<RowType, 9> kTypes = {
       Type<hyq_lcm::lcmt_hyq_joint_state>("lcmt_hyq_joint_state"),
       Type<hyq_lcm::lcmt_hyq_joint_torque>("lcmt_hyq_joint_torque"),
       Type<hyq_lcm::lcmt_hyq_base_state>("lcmt_hyq_base_state"),
@@ -289,6 +314,7 @@ const RowType* FindRowType(std::span<const std::uint8_t> data) {
       Type<hyq_lcm::lcmt_hyq_health>("lcmt_hyq_health"),
       Type<hyq_lcm::lcmt_hyq_event>("lcmt_hyq_event"),
       Type<hyq_lcm::lcmt_hyq_command>("lcmt_hyq_command"),
+      Type<hyq_lcm::lcmt_hyq_signed_command>("lcmt_hyq_signed_command"),
   };
   if (data.size() < 8) return nullptr;
   std::uint64_t h = 0;
