@@ -6,6 +6,7 @@
 #include <yaml-cpp/yaml.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -155,10 +156,24 @@ inline YAML::Node ParseYaml(const Reader& r, const std::string& text) {
 }
 
 /// The whole file; `what` names it in the error ("the HAL configuration").
+// A configuration is a small regular file: /dev/zero, a FIFO or a directory given by mistake
+// must not hang the loader or exhaust memory.
+inline constexpr std::uintmax_t kMaxConfigBytes = 1u << 20;
+
 inline std::string ReadTextFile(const std::filesystem::path& path, const char* what) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(path, ec);
+  if (!ec && std::filesystem::exists(status) && !std::filesystem::is_regular_file(status))
+    throw ConfigError(path.string() + ": cannot read " + what +
+                      " (expected a regular YAML file, found a " +
+                      (std::filesystem::is_directory(status) ? "directory" : "device, FIFO or socket") + ")");
   std::ifstream in(path);
   if (!in)
     throw ConfigError(path.string() + ": cannot open " + what + " (expected a readable YAML file)");
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec && size > kMaxConfigBytes)
+    throw ConfigError(path.string() + ": " + what + " too large (expected at most " +
+                      std::to_string(kMaxConfigBytes) + " bytes, found " + std::to_string(size) + ")");
   std::ostringstream text;
   text << in.rdbuf();
   return text.str();

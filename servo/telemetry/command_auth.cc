@@ -210,12 +210,14 @@ AuthVerdict CommandAuthenticator::Check(const void* data, std::size_t size, std:
     // authenticated: only now is the command itself parsed
     if (!DecodeCommand(inner, static_cast<std::size_t>(command_size), command, why, n))
       return AuthVerdict::kUndecodable;
-    const std::int64_t age_us = now_us - command->utime;
+    // compared without subtracting: a sender's utime may be anything (the fuzzer found the
+    // overflow of now - utime)
     const std::int64_t max_us = config_.max_age.count() * 1000;
-    if (age_us > max_us || age_us < -max_us) {
+    if (command->utime < now_us - max_us || command->utime > now_us + max_us) {
+      const double age_us = static_cast<double>(now_us) - static_cast<double>(command->utime);
       std::snprintf(why, n, "utime: expected within %lld ms of the robot's clock, found %+.0f ms "
                             "('%.16s')",
-                    static_cast<long long>(config_.max_age.count()), -static_cast<double>(age_us) / 1e3,
+                    static_cast<long long>(config_.max_age.count()), -age_us / 1e3,
                     sender_at);
       return AuthVerdict::kStale;
     }

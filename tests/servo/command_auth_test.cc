@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <random>
 #include <stdexcept>
 #include <string>
@@ -121,6 +122,11 @@ TEST(CommandAuth, StaleOrFromTheFutureIsRefused) {
             std::string::npos) << why;
   const auto future = SignCommand(TestKey(), "op", Enable(2, kNowUs + 1'300'000));
   EXPECT_EQ(auth.Check(future.data(), future.size(), kNowUs, &got, why, sizeof why), AuthVerdict::kStale);
+  // any utime at all, without overflow in the check (the command fuzzer found now - INT64_MIN)
+  for (const std::int64_t t : {std::numeric_limits<std::int64_t>::min(), std::numeric_limits<std::int64_t>::max()}) {
+    const auto far = SignCommand(TestKey(), "op", Enable(3, t));
+    EXPECT_EQ(auth.Check(far.data(), far.size(), kNowUs, &got, why, sizeof why), AuthVerdict::kStale);
+  }
   // a refused stale command does not advance the sequence: a fresh one with a lower number passes
   const auto fresh = SignCommand(TestKey(), "op", Enable(1, kNowUs - 999'000));
   EXPECT_EQ(auth.Check(fresh.data(), fresh.size(), kNowUs, &got, why, sizeof why), AuthVerdict::kOk) << why;

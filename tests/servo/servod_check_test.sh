@@ -75,6 +75,13 @@ out=$("$servod" --check --config "$work/open_key.yaml" 2>&1); rc=$?
 if ((rc == 1)) && [[ "$out" == *"open.key': expected mode 0600 or 0400"* ]]; then echo "ok   open_key: $out"
 else echo "FAIL open_key (exit $rc): $out"; fails=$((fails + 1)); fi
 
+# not a configuration file at all: a device, a directory (used to hang or abort)
+for f in /dev/zero "$work"; do
+  out=$(timeout 10 "$servod" --check --config "$f" 2>&1); rc=$?
+  if ((rc == 1)) && [[ "$out" == *"expected a regular YAML file"* ]]; then echo "ok   config $f: $out"
+  else echo "FAIL config $f (exit $rc): $out"; fails=$((fails + 1)); fi
+done
+
 # bad command-line flags name the flag, what was expected and what was found
 out=$("$servod" --clock warp 2>&1); rc=$?
 if ((rc == 2)) && [[ "$out" == *"--clock"* && "$out" == *"realtime or lockstep"* && "$out" == *"warp"* ]]; then
