@@ -14,6 +14,7 @@ readonly PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libmujoco-dev libgl-dev libqhull-dev
   liblcm-dev liblcm-bin liblcm-java libglib2.0-dev default-jdk-headless libjchart2d-java
+  default-jre   # lcm-spy is a Swing window: the AWT/X11 half of the JRE (not in -headless)
   # CAN and test references
   can-utils iproute2 python3 python3-can python3-cvxopt python3-numpy python3-matplotlib
   rt-tests xvfb x11-apps imagemagick util-linux

@@ -16,7 +16,7 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 
 out=hil-run duration=5 reference=trot controller=two_stage mu=0.1 clock=lockstep
-build="$here/build/release" logger=1 candump=0 quiet=0 sigterm_after= servod_bin=
+build="$here/build/ci" logger=1 candump=0 quiet=0 sigterm_after= servod_bin=
 faults=() sim_args=() servod_args=()
 usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
 while (($#)); do
@@ -62,7 +62,7 @@ ip route add 224.0.0.0/4 dev lo 2>/dev/null || true
 sim="$build/tools/hyq-sim/hyq-sim"
 servod="${servod_bin:-$build/tools/hyq-servod/hyq-servod}"
 for b in "$sim" "$servod"; do
-  [[ -x "$b" ]] || { echo "hil.sh: $b not built (cmake --build --preset release)" >&2; exit 1; }
+  [[ -x "$b" ]] || { echo "hil.sh: $b not built (scripts/run.sh builds it, or cmake --build --preset ci)" >&2; exit 1; }
 done
 mkdir -p "$out"
 rm -f "$out"/*.json "$out"/*.csv "$out"/telemetry.lcmlog "$out"/*.log

@@ -195,13 +195,27 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
   // decode the log with the generated types
   lcm::LogFile log(log_path, "r");
   ASSERT_TRUE(log.good());
+  // UDP multicast is best effort, and lcm-logger's receive ring drops datagrams on a busy machine
+  // (issue 14: 174-276 of 300 under two CPU hogs). What the transport promises, and what is
+  // tested: every message that arrives decodes and equals what was pushed for its cycle, each
+  // channel's messages arrive in order without duplicates, and the losses are counted (here,
+  // printed); not that all of them arrive.
   std::map<std::string, int> count;
+  std::map<std::string, std::int64_t> last_cycle;
+  const auto in_order = [&](const std::string& channel, std::int64_t cycle) {
+    const auto it = last_cycle.find(channel);
+    const bool ok = it == last_cycle.end() || cycle > it->second;
+    last_cycle[channel] = cycle;
+    return ok;
+  };
   std::vector<std::uint64_t> events_seen;
   hyq_lcm::lcmt_hyq_health last_health{};
+  int health_seen = 0;
   while (const lcm::LogEvent* ev = log.readNextEvent()) {
     ++count[ev->channel];
     if (ev->channel == "HYQ_JOINT_STATE") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_joint_state>(ev->data, static_cast<std::size_t>(ev->datalen));
+      EXPECT_TRUE(in_order(ev->channel, m.cycle)) << m.cycle;
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
       ASSERT_EQ(m.utime, s.time_ns / 1000);
       EXPECT_EQ(m.mode, static_cast<int>(ServoMode::kActive));
@@ -216,11 +230,13 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
       }
     } else if (ev->channel == "HYQ_JOINT_TORQUE") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_joint_torque>(ev->data, static_cast<std::size_t>(ev->datalen));
+      EXPECT_TRUE(in_order(ev->channel, m.cycle)) << m.cycle;
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
       for (int j = 0; j < kNumJoints; ++j) ASSERT_EQ(m.tau_command_Nm[j], s.tau_command_Nm[j]);
       EXPECT_EQ(m.controller, 3);
     } else if (ev->channel == "HYQ_CONTACT") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_contact_state>(ev->data, static_cast<std::size_t>(ev->datalen));
+      EXPECT_TRUE(in_order(ev->channel, m.cycle)) << m.cycle;
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
       for (int f = 0; f < kNumFeet; ++f) {
         ASSERT_EQ(m.stance_reference[f] != 0, s.stance_reference[f] != 0);
@@ -231,12 +247,17 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
       EXPECT_EQ(m.stage2_solve_us, s.stage2_solve_us);
     } else if (ev->channel == "HYQ_TIMING") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_servo_timing>(ev->data, static_cast<std::size_t>(ev->datalen));
+      EXPECT_TRUE(in_order(ev->channel, m.cycle)) << m.cycle;
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
       EXPECT_EQ(m.total_ns, s.timing.total_ns);
       EXPECT_EQ(m.wakeup_latency_ns, s.timing.wakeup_latency_ns);
       EXPECT_EQ(m.deadline_misses, static_cast<std::int64_t>(s.deadline_misses));
     } else if (ev->channel == "HYQ_HEALTH") {
       last_health = Decode<hyq_lcm::lcmt_hyq_health>(ev->data, static_cast<std::size_t>(ev->datalen));
+      ++health_seen;
+      // the final one repeats the last cycle's number (it is built from the last snapshot)
+      EXPECT_GE(last_health.cycle, last_cycle.count("HYQ_HEALTH") ? last_cycle["HYQ_HEALTH"] : -1);
+      last_cycle["HYQ_HEALTH"] = last_health.cycle;
       EXPECT_EQ(last_health.buses[2].rx_frames, last_health.cycle * 13);
       EXPECT_EQ(last_health.num_devices, 13);
       EXPECT_EQ(last_health.device_state[12], 3);
@@ -250,21 +271,28 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
       EXPECT_EQ(m.joint, 4);
     }
   }
-  EXPECT_EQ(count["HYQ_JOINT_STATE"], kCycles);
-  EXPECT_EQ(count["HYQ_JOINT_TORQUE"], kCycles);
-  EXPECT_EQ(count["HYQ_BASE_STATE"], kCycles);
-  EXPECT_EQ(count["HYQ_CONTACT"], kCycles);
-  EXPECT_EQ(count["HYQ_TIMING"], kCycles);
-  EXPECT_EQ(count["HYQ_HEALTH"], kCycles / 100 + 1);  // cycles 0, 100, 200 and the final one
-  // each event goes out once at once and again with the next two HEALTH messages (best-effort
-  // UDP): deduplicated, the events in order
+  // the losses, counted per channel (at most everything, and something arrived on each)
+  for (const char* ch : {"HYQ_JOINT_STATE", "HYQ_JOINT_TORQUE", "HYQ_BASE_STATE", "HYQ_CONTACT",
+                         "HYQ_TIMING"}) {
+    EXPECT_LE(count[ch], kCycles) << ch;
+    EXPECT_GE(count[ch], 1) << ch;
+    std::printf("%s: %d of %d recorded (%d lost)\n", ch, count[ch], kCycles, kCycles - count[ch]);
+  }
+  EXPECT_LE(count["HYQ_HEALTH"], kCycles / 100 + 1);  // cycles 0, 100, 200 and the final one
+  EXPECT_GE(health_seen, 1);
+  // each event goes out once at once and again with the next two HEALTH messages: deduplicated,
+  // the ones that arrived are the pushed ones, in order
   std::vector<std::uint64_t> unique_events;
   for (std::uint64_t c : events_seen)
     if (std::find(unique_events.begin(), unique_events.end(), c) == unique_events.end())
       unique_events.push_back(c);
-  EXPECT_EQ(unique_events, event_cycles);
-  EXPECT_EQ(last_health.cycle, kCycles - 1);
-  EXPECT_EQ(last_health.snapshots_published, kCycles);
+  EXPECT_TRUE(std::includes(event_cycles.begin(), event_cycles.end(), unique_events.begin(),
+                            unique_events.end()));
+  EXPECT_TRUE(std::is_sorted(unique_events.begin(), unique_events.end()));
+  std::printf("events: %zu of %zu recorded\n", unique_events.size(), event_cycles.size());
+  if (last_health.cycle == kCycles - 1) {  // the final health message arrived
+    EXPECT_EQ(last_health.snapshots_published, kCycles);
+  }
 
   // hyq-lcm-export: one CSV per channel, header + one row per message
   const fs::path csv_dir = dir / "csv";
