@@ -35,7 +35,9 @@ struct ServoConfig {
   hal::HalConfig hal;                   // loaded from hal_file; timing.cycle_period_s = 1 / rate
   double rate_hz = 1000.0;
   ClockMode clock = ClockMode::kRealtime;
-  double lockstep_timeout_s = 0.2;        // lock-step: longest wait for the devices' answers
+  // lock-step: longest wait (wall clock) for the devices' answers; generous, because in lock-step
+  // a late answer costs nothing physical, and a busy machine can starve the simulator that long
+  double lockstep_timeout_s = 2.0;
   double lockstep_short_timeout_s = 0.002;  // ... for 1000 cycles after an answer was missing
   ControllerConfig controller;
   std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};

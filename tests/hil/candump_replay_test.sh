@@ -95,10 +95,17 @@ for bus, joints in BUS_JOINTS.items():
     if first_bad:
         print(f"FAIL: {bus}: cycle {first_bad[0]} {first_bad[1]}: telemetry (q, qd, tau) {first_bad[2]}, "
               f"replay {first_bad[3]}")
-    if mismatched or frac < 0.5:
+    # python-can's logger records best effort (a busy machine loses frames: issue 14 saw 30 %
+    # of the rows comparable beside two CPU hogs): what must hold is that every row that can be
+    # compared is equal, that there are enough of them to mean something, and that the alignment
+    # of SYNC counter and cycle is unambiguous
+    runner_up = rest[0][1] if rest else 0
+    if mismatched or compared < 100 or nd < 3 * runner_up:
         ok = False
-        if frac < 0.5:
-            print(f"FAIL: {bus}: only {frac:.0%} of the telemetry rows could be compared")
+        if compared < 100:
+            print(f"FAIL: {bus}: only {compared} telemetry rows could be compared (expected >= 100)")
+        if nd < 3 * runner_up:
+            print(f"FAIL: {bus}: the cycle alignment is ambiguous ({nd} votes, runner-up {runner_up})")
 print("PASS: the replayed TPDOs decode to exactly the daemon's q, qd, tau_measured" if ok else "FAIL")
 sys.exit(0 if ok else 1)
 PY

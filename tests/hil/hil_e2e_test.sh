@@ -150,7 +150,10 @@ EOS
 #!/bin/bash
 set -u
 ip link set lo up; ip route add 224.0.0.0/4 dev lo
-"$build/tools/hyq-sim/hyq-sim" --mode realtime --mu 0.1 --summary "$out/sim.json" --truth "$out/truth.csv" --quiet 2>"$out/sim.log" &
+# the plant steps on its own clock: SCHED_FIFO below the servo thread (80), as issue 17 puts it,
+# so that a busy machine (the suite beside two CPU hogs) does not starve it (plain when chrt fails)
+rt=(chrt -f 70); chrt -f 70 true 2>/dev/null || rt=()
+"\${rt[@]}" "$build/tools/hyq-sim/hyq-sim" --mode realtime --mu 0.1 --summary "$out/sim.json" --truth "$out/truth.csv" --quiet 2>"$out/sim.log" &
 sim=\$!
 sleep 0.3
 "$build/tools/hyq-servod/hyq-servod" --config "$out/rt_servo.yaml" --clock realtime --auto-enable \

@@ -50,7 +50,17 @@ TEST(SimulatedRobotUdp, LockStepBringUpAndStandingOverVirtualBuses) {
   UdpMaster master(Specs(43101));
   std::atomic<bool> stop{false};
   std::thread sim_thread([&] { (void)robot.RunLockStep(stop, 0.0); });
-  ASSERT_TRUE(master.WaitForDevices(5000));
+  // stopped and joined on every way out (a failed ASSERT returns: a joinable thread terminates)
+  struct Joiner {
+    std::atomic<bool>& stop;
+    std::thread& thread;
+    ~Joiner() {
+      stop = true;
+      if (thread.joinable()) thread.join();
+    }
+  } joiner{stop, sim_thread};
+  // a guard, not a window: the devices announce themselves as soon as the simulator runs
+  ASSERT_TRUE(master.WaitForDevices(60000));
   master.BringUp();
   int not_ok = 0;
   for (int i = 0; i < 500; ++i) not_ok += master.Cycle(Pd()) != hal::HalStatus::kOk;
@@ -80,7 +90,7 @@ TEST(HyqSimTool, LockStepAgainstAHalMasterWritesItsSummary) {
   UdpMaster master(Specs(43101));  // hyq-sim's default buses
   pid_t pid = 0;
   ASSERT_EQ(posix_spawn(&pid, HYQ_SIM_TOOL, nullptr, nullptr, argv.data(), environ), 0);
-  ASSERT_TRUE(master.WaitForDevices(10000)) << "hyq-sim did not announce its devices";
+  ASSERT_TRUE(master.WaitForDevices(60000)) << "hyq-sim did not announce its devices";
   master.BringUp();
   int status = 0;
   bool exited = false;

@@ -5,7 +5,10 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <functional>
+#include <memory>
+#include <ostream>
 #include <string>
 
 #include "servo/runtime/servo_loop.h"
@@ -79,6 +82,10 @@ struct FaultCase {
   std::vector<int> cut_off = {};  // joints whose boards the loop cannot reach (keep their set-point)
 };
 
+// gtest prints a parameter into the test's name for ctest: the case's name, not its bytes
+// (pointer bytes changed the ctest names from one build to the next)
+void PrintTo(const FaultCase& c, std::ostream* os) { *os << c.name; }
+
 class ServoFault : public ::testing::TestWithParam<FaultCase> {};
 
 TEST_P(ServoFault, ReachesTheSafeStateWithinTwoCycles) {
@@ -87,9 +94,19 @@ TEST_P(ServoFault, ReachesTheSafeStateWithinTwoCycles) {
   // the deadline case reacts to its first miss; the others must not be disturbed by a preempted
   // cycle on a loaded test machine (the loop's wall-clock deadline is real even in this rig)
   cfg.deadline.max_consecutive_misses = fc.reason == EventReason::kDeadlineMiss ? 1 : 1000;
-  ServoRig rig(cfg);
-  rig.BringUpAndStart();
-  rig.Steps(30);
+  // In the deadline case a cycle preempted by a busy machine before the injection is a real miss
+  // and, rightly, a fault: then the precondition (ACTIVE, nothing missed) is made again on a fresh
+  // rig instead of failing the test (issue 14: tests must not need an idle machine).
+  std::unique_ptr<ServoRig> owned;
+  for (int attempt = 1; attempt <= 20; ++attempt) {
+    owned = std::make_unique<ServoRig>(cfg);
+    owned->BringUpAndStart();
+    owned->Steps(30);
+    if (owned->loop->mode() == ServoMode::kActive || fc.reason != EventReason::kDeadlineMiss) break;
+    std::printf("%s: attempt %d missed a deadline before the injection (a busy machine); again\n",
+                fc.name.c_str(), attempt);
+  }
+  ServoRig& rig = *owned;
   ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
   fc.inject(rig);
   rig.Steps(fc.transport_cycles);
