@@ -373,10 +373,12 @@ servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
 
   const YAML::Node loop = Section(r, root, "loop");
   r.Keys(loop, "loop", {"rate_hz", "clock", "duration_s", "lockstep_timeout_s",
-                        "lockstep_short_timeout_s"});
+                        "lockstep_short_timeout_s", "lockstep_bringup_timeout_s"});
   c.lockstep_timeout_s = Bounded(r, loop, "loop", "lockstep_timeout_s", c.lockstep_timeout_s, 1e-3, 60.0);
   c.lockstep_short_timeout_s = Bounded(r, loop, "loop", "lockstep_short_timeout_s",
                                        c.lockstep_short_timeout_s, 1e-4, 60.0);
+  c.lockstep_bringup_timeout_s = Bounded(r, loop, "loop", "lockstep_bringup_timeout_s",
+                                         c.lockstep_bringup_timeout_s, 0.1, 3600.0);
   c.rate_hz = Bounded(r, loop, "loop", "rate_hz", c.rate_hz, 50.0, 10000.0);
   if (loop["clock"].IsDefined())
     c.clock = r.OneOf(loop, "loop", "clock", {"realtime", "lockstep"}) == "lockstep"

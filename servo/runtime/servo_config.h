@@ -39,6 +39,9 @@ struct ServoConfig {
   // a late answer costs nothing physical, and a busy machine can starve the simulator that long
   double lockstep_timeout_s = 2.0;
   double lockstep_short_timeout_s = 0.002;  // ... for 1000 cycles after an answer was missing
+  // lock-step: the bring-up's bound in wall time (the HAL's bringup_timeout_s counts simulated
+  // time there, which stands still while nobody answers)
+  double lockstep_bringup_timeout_s = 30.0;
   ControllerConfig controller;
   std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};
   Reference::Kind reference = Reference::Kind::kStand;

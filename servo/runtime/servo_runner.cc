@@ -52,10 +52,10 @@ std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
   const auto period = static_cast<std::int64_t>(config.period_s() * 1e9);
   std::int64_t now = config.clock == ClockMode::kLockstep ? 0 : MonotonicNs();
   // in lock-step the HAL's timeout counts simulated time, and each cycle may wait up to 200 ms
-  // for answers that never come: bound the wall time by the same timeout, so that the message's
-  // "after 3 s" is what the operator waited
+  // for answers that never come: the wall time has its own bound (loop.lockstep_bringup_timeout_s),
+  // and the message says which one ran out
   const std::int64_t wall0 = MonotonicNs();
-  const auto timeout_ns = static_cast<std::int64_t>(hal.config().timing.bringup_timeout_s * 1e9);
+  const auto timeout_ns = static_cast<std::int64_t>(config.lockstep_bringup_timeout_s * 1e9);
   hal::RunBringUp(hal, hal::DeviceState::kOp, now, [&] {
     if (abort && abort())
       throw hal::ConfigError("bring-up aborted by a stop request (SIGINT/SIGTERM) before every "
@@ -63,9 +63,9 @@ std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
     if (config.clock == ClockMode::kLockstep && MonotonicNs() - wall0 > timeout_ns) {
       char head[160];
       std::snprintf(head, sizeof head,
-                    "HAL bring-up to OP timed out after %g s of wall time (lock-step: %lld cycles, "
-                    "%.3f s simulated): ",
-                    hal.config().timing.bringup_timeout_s, static_cast<long long>(now / period),
+                    "HAL bring-up to OP timed out after %g s of wall time "
+                    "(loop.lockstep_bringup_timeout_s; lock-step: %lld cycles, %.3f s simulated): ",
+                    config.lockstep_bringup_timeout_s, static_cast<long long>(now / period),
                     1e-9 * static_cast<double>(now));
       throw hal::ConfigError(head + hal.BringUpReport(now));
     }

@@ -11,6 +11,7 @@
 
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
 #include <thread>
 
 #include "drivers/candump.h"
@@ -212,23 +213,46 @@ TEST(SocketCan, CanUtilsCandumpRecordsUsAndCanplayerPlaysOurLog) {
   const std::string dir = std::filesystem::temp_directory_path().string();
   const std::string theirs = dir + "/hyq_candump.log", ours = dir + "/hyq_ours.log";
 
-  // candump -L records what our channel sends on vcan2; our reader reads its log
+  // candump -L records what our channel sends on vcan2; our reader reads its log. Waits on what
+  // candump wrote, not on a guessed time (issue 14: 800 ms was not enough in a busy VM): a marker
+  // frame goes out until candump has recorded it (it is bound then), then the frames, until
+  // they are all in its log (30 s guards).
+  const CanFrame marker = Classic(0x7EE, {0xAA});
+  const auto lines_in = [&] {
+    std::ifstream in(theirs);
+    std::size_t n = 0;
+    for (std::string line; std::getline(in, line);) n += !line.empty();
+    return n;
+  };
+  std::size_t markers = 0;
   {
+    std::filesystem::remove(theirs);
     testing::Child candump({"/bin/sh", "-c", "exec /usr/bin/candump -L vcan2,0:0,#FFFFFFFF > " +
                                                  theirs + " 2>&1"});
-    std::this_thread::sleep_for(std::chrono::milliseconds(800));  // let it bind
     SocketCanChannel a(On("vcan2"));
     std::size_t sent = 0;
+    const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (lines_in() == 0 && std::chrono::steady_clock::now() < end) {
+      ASSERT_EQ(a.Send({&marker, 1}, &sent), CanStatus::kOk);
+      ++markers;
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));  // markers still in flight
+    const std::size_t before = lines_in();
+    ASSERT_GT(before, 0u) << "candump recorded nothing within 30 s";
     ASSERT_EQ(a.Send(frames, &sent), CanStatus::kOk);
-    std::this_thread::sleep_for(std::chrono::milliseconds(800));
+    while (lines_in() < before + frames.size() && std::chrono::steady_clock::now() < end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(20));
     candump.Signal(SIGINT);
     candump.Wait(std::chrono::seconds(10));
   }
-  const CandumpLog log = ReadCandumpFile(theirs);
-  ASSERT_EQ(log.records.size(), frames.size());
+  CandumpLog log = ReadCandumpFile(theirs);
+  std::size_t first = 0;
+  while (first < log.records.size() && SameFrame(log.records[first].frame, marker)) ++first;
+  ASSERT_EQ(log.records.size() - first, frames.size()) << markers << " marker(s) sent";
   for (std::size_t i = 0; i < frames.size(); ++i) {
-    EXPECT_TRUE(SameFrame(log.records[i].frame, frames[i])) << i;
-    EXPECT_EQ(log.records[i].iface_name(), "vcan2");
+    EXPECT_TRUE(SameFrame(log.records[first + i].frame, frames[i])) << i;
+    EXPECT_EQ(log.records[first + i].iface_name(), "vcan2");
   }
 
   // canplayer plays our writer's log onto vcan3, where our channel receives it

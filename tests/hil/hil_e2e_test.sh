@@ -188,7 +188,7 @@ PY
     # software-emulated CPU (TCG): a cycle takes milliseconds, so this run checks the SocketCAN
     # path, not timing: generous lock-step waits, the deadline policy off, the PID controller
     sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
-        -e 's|^  clock: lockstep .*|  clock: lockstep\n  lockstep_timeout_s: 5\n  lockstep_short_timeout_s: 1|' \
+        -e 's|^  clock: lockstep .*|  clock: lockstep\n  lockstep_timeout_s: 5\n  lockstep_short_timeout_s: 1\n  lockstep_bringup_timeout_s: 600|' \
         -e 's|^  kind: two_stage$|  kind: pid|' \
         "$here/config/hyq_servo_sim.yaml" > "$out/vm_servo.yaml"
     printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$out/vm_servo.yaml"
