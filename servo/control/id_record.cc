@@ -5,6 +5,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "qp/json_nesting.h"
+
 namespace hyq::servo {
 namespace {
 
@@ -36,32 +38,6 @@ void Array(const json& j, const std::string& key, Vec* out) {
   if (!v.is_array() || static_cast<int>(v.size()) != n)
     Fail(key, "an array of " + std::to_string(n) + " numbers", v);
   for (int i = 0; i < n; ++i) (*out)(i) = Number(v[i], key + "[" + std::to_string(i) + "]");
-}
-
-// The deepest nesting of arrays and objects in `text` (outside strings), counted up to `limit` + 1:
-// nlohmann's dump() and destructor recurse once per level, so 100 000 '[' overflow the stack.
-int NestingDepth(std::string_view text, int limit) {
-  int depth = 0, deepest = 0;
-  bool in_string = false, escaped = false;
-  for (const char c : text) {
-    if (in_string) {
-      if (escaped) {
-        escaped = false;
-      } else if (c == '\\') {
-        escaped = true;
-      } else if (c == '"') {
-        in_string = false;
-      }
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      deepest = std::max(deepest, ++depth);
-      if (deepest > limit) break;
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-  return deepest;
 }
 
 json Vector(const auto& v) {
@@ -120,7 +96,7 @@ IdRecord ParseIdRecord(std::string_view line) {
   if (line.size() > kMaxIdRecordBytes)
     throw IdRecordError("expected a line of at most " + std::to_string(kMaxIdRecordBytes) +
                         " bytes, found " + std::to_string(line.size()));
-  if (NestingDepth(line, kMaxIdRecordDepth) > kMaxIdRecordDepth)
+  if (qp::JsonNestingDepth(line, kMaxIdRecordDepth) > kMaxIdRecordDepth)
     throw IdRecordError("expected arrays and objects nested at most " +
                         std::to_string(kMaxIdRecordDepth) + " deep, found more");
   json j;

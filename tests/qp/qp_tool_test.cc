@@ -13,26 +13,13 @@
 #include <nlohmann/json.hpp>
 
 #include "tests/support/paths.h"
+#include "tests/support/run_tool.h"
 
 namespace {
 
-struct ToolRun {
-  int exit_code = -1;
-  std::string out;  // stdout and stderr
-};
+using hyq::test::ToolRun;
 
-ToolRun RunTool(const std::string& args) {
-  ToolRun r;
-  const std::string cmd = std::string(HYQ_QP_SOLVE) + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buf;
-  size_t got;
-  while ((got = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), got);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
-}
+ToolRun RunTool(const std::string& args) { return hyq::test::RunTool(HYQ_QP_SOLVE, args); }
 
 std::string WriteTemp(const std::string& name, const std::string& text) {
   const auto path = std::filesystem::temp_directory_path() / ("hyq_qp_tool_test_" + name);

@@ -21,6 +21,7 @@
 #include "hyq_lcm/lcmt_hyq_signed_command.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_joint_state.hpp"
+#include "tests/support/run_tool.h"
 #include "tools/hyq-lcm-export/csv_rows.h"
 #include "tools/hyq-lcm-export/lcm_log.h"
 
@@ -230,23 +231,9 @@ TEST(LcmCsvRows, CorruptLengthFieldsAreUndecodable) {
   EXPECT_FALSE(RowCells(*FindRowType(m), m, &cells));
 }
 
-struct ToolRun {
-  int exit_code = -1;
-  std::string out;  // stdout and stderr
-};
+using hyq::test::ToolRun;
 
-ToolRun RunTool(const std::string& args) {
-  ToolRun r;
-  const std::string cmd = std::string(HYQ_LCM_EXPORT_TOOL) + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
-  if (pipe == nullptr) return r;
-  std::array<char, 4096> buf;
-  size_t got;
-  while ((got = fread(buf.data(), 1, buf.size(), pipe)) > 0) r.out.append(buf.data(), got);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-  return r;
-}
+ToolRun RunTool(const std::string& args) { return hyq::test::RunTool(HYQ_LCM_EXPORT_TOOL, args); }
 
 class HyqLcmExport : public ::testing::Test {
  protected:

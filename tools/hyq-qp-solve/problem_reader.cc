@@ -8,6 +8,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "qp/json_nesting.h"
+
 namespace hyq::qp_solve {
 namespace {
 
@@ -18,32 +20,6 @@ std::string Found(const json& v) {
   std::string s = v.dump();
   if (s.size() > 40) s = s.substr(0, 37) + "...";
   return std::string(v.type_name()) + " " + s;
-}
-
-// The deepest nesting of arrays and objects in `text` (outside strings), counted up to `limit` + 1:
-// nlohmann's dump() and destructor recurse once per level, so 100 000 '[' overflow the stack.
-int NestingDepth(std::string_view text, int limit) {
-  int depth = 0, deepest = 0;
-  bool in_string = false, escaped = false;
-  for (const char c : text) {
-    if (in_string) {
-      if (escaped) {
-        escaped = false;
-      } else if (c == '\\') {
-        escaped = true;
-      } else if (c == '"') {
-        in_string = false;
-      }
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      deepest = std::max(deepest, ++depth);
-      if (deepest > limit) break;
-    } else if (c == ']' || c == '}') {
-      --depth;
-    }
-  }
-  return deepest;
 }
 
 class Reader {
@@ -145,7 +121,7 @@ qp::Problem ParseProblem(std::string_view text, const std::string& name) {
   if (text.size() > kMaxFileBytes)
     throw InputError(name + ": expected at most " + std::to_string(kMaxFileBytes >> 20) +
                      " MiB, found " + std::to_string(text.size()) + " bytes");
-  if (NestingDepth(text, kMaxDepth) > kMaxDepth)
+  if (qp::JsonNestingDepth(text, kMaxDepth) > kMaxDepth)
     throw InputError(name + ": expected arrays and objects nested at most " +
                      std::to_string(kMaxDepth) + " deep, found more");
   json root;
