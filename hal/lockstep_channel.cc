@@ -1,8 +1,26 @@
 #include "hal/lockstep_channel.h"
 
+#include <poll.h>
+
+#include <algorithm>
+#include <array>
+
+#include "hal/clock.h"
+#include "hal/hal.h"
 #include "hal/protocol.h"
 
 namespace hyq::hal {
+namespace {
+
+// The SYNC counter a TPDO1 answers (ActuatorTpdo byte 14, ImuTpdo byte 26); 0 for a layout
+// without one.
+std::uint8_t AnsweredSync(const CanFrame& f) noexcept {
+  if (f.len == 16) return f.data[14];
+  if (f.len == 32) return f.data[26];
+  return 0;
+}
+
+}  // namespace
 
 LockstepChannel::LockstepChannel(std::unique_ptr<CanChannel> inner)
     : inner_(std::move(inner)) {
@@ -11,7 +29,16 @@ LockstepChannel::LockstepChannel(std::unique_ptr<CanChannel> inner)
 
 CanStatus LockstepChannel::Send(std::span<const CanFrame> frames,
                                      std::size_t* sent) noexcept {
-  return inner_->Send(frames, sent);
+  const CanStatus st = inner_->Send(frames, sent);
+  for (std::size_t i = 0; i < *sent; ++i) {
+    std::uint8_t counter = 0;
+    if (DecodeSync(frames[i], &counter) != PdoStatus::kOk) continue;
+    // a new SYNC: what is buffered answers earlier ones (the HAL still receives it)
+    sync_counter_ = counter;
+    tpdos_ = 0;
+    tpdo_nodes_.reset();
+  }
+  return st;
 }
 
 CanStatus LockstepChannel::Receive(std::span<CanFrame> out,
@@ -33,15 +60,47 @@ int LockstepChannel::Pump() noexcept {
   if (tail_ < buffer_.size()) {
     std::size_t n = 0;
     (void)inner_->Receive(std::span(buffer_).subspan(tail_), &n);
-    for (std::size_t i = tail_; i < tail_ + n; ++i)
-      if (!buffer_[i].is_extended() && !buffer_[i].is_error() &&
-          (buffer_[i].id & 0x780u) == cob::kTpdo1) {
-        ++tpdos_;
-        tpdo_nodes_.set(buffer_[i].id & 0x7fu);
-      }
+    for (std::size_t i = tail_; i < tail_ + n; ++i) {
+      const CanFrame& f = buffer_[i];
+      if (f.is_extended() || f.is_error() || (f.id & 0x780u) != cob::kTpdo1) continue;
+      const std::uint8_t answers = AnsweredSync(f);
+      if (sync_counter_ != 0 && answers != 0 && answers != sync_counter_) continue;  // late
+      ++tpdos_;
+      tpdo_nodes_.set(f.id & 0x7fu);
+    }
     tail_ += n;
   }
   return tpdos_;
+}
+
+bool WaitForLockstepInputs(const Hal& hal, std::span<LockstepChannel* const> channels,
+                           std::int64_t timeout_ns, std::int64_t idle_ns) noexcept {
+  int expected = 0;
+  for (std::size_t b = 0; b < hal.num_buses(); ++b)
+    for (const auto& d : hal.bus(b).devices()) expected += d.expect_inputs ? 1 : 0;
+  const bool per_device = channels.size() == hal.num_buses();
+  const auto answered = [&] {
+    int got = 0;
+    for (std::size_t b = 0; b < hal.num_buses(); ++b)
+      for (const auto& d : hal.bus(b).devices())
+        got += d.expect_inputs && channels[b]->has_tpdo_from(d.node) ? 1 : 0;
+    return got;
+  };
+  std::array<pollfd, kMaxBuses> fds{};
+  std::size_t nfds = 0;
+  for (LockstepChannel* c : channels)
+    if (c->poll_fd() >= 0 && nfds < fds.size()) fds[nfds++] = {c->poll_fd(), POLLIN, 0};
+  const std::int64_t end =
+      MonotonicNs() + (expected == 0 ? std::min(timeout_ns, idle_ns) : timeout_ns);
+  for (;;) {
+    int got = 0;
+    for (LockstepChannel* c : channels) got += c->Pump();
+    if (per_device) got = answered();
+    if (expected > 0 && got >= expected) return true;
+    const std::int64_t left = end - MonotonicNs();
+    if (left <= 0) return expected == 0;
+    (void)poll(fds.data(), nfds, static_cast<int>(std::max<std::int64_t>(left / 1'000'000, 1)));
+  }
 }
 
 }  // namespace hyq::hal

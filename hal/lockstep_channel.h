@@ -1,6 +1,7 @@
 // A channel wrapper that lets a caller see whether the TPDOs answering the last SYNC have arrived
 // before the HAL's Read takes them: Pump() moves pending frames into a fixed buffer and counts
-// the TPDOs; Receive() hands the HAL exactly the same frames, in order. Used by the daemon's
+// the TPDOs that carry the counter of the last SYNC sent through it (a late answer to an earlier
+// SYNC is not an answer to this one); Receive() hands the HAL exactly the same frames, in order. Used by the daemon's
 // lock-step clock (servo/runtime/servo_runner.h) and the virtual-bus test rig. Never allocates after
 // construction.
 #pragma once
@@ -8,6 +9,7 @@
 #include <bitset>
 #include <cstdint>
 #include <memory>
+#include <span>
 #include <vector>
 
 #include "hal/can_channel.h"
@@ -27,7 +29,8 @@ class LockstepChannel : public CanChannel {
   int poll_fd() const noexcept override { return inner_->poll_fd(); }
   CanChannel& inner() noexcept { return *inner_; }
 
-  /// Moves pending frames into the buffer; returns the TPDOs buffered and not yet received.
+  /// Moves pending frames into the buffer; returns the TPDOs buffered and not yet received that
+  /// answer the last SYNC sent (all TPDOs before the first SYNC).
   int Pump() noexcept;
   /// Whether a TPDO from `node` is among them (per device, so that a stray TPDO of another
   /// node cannot stand in for a device's answer).
@@ -41,6 +44,17 @@ class LockstepChannel : public CanChannel {
   std::size_t head_ = 0, tail_ = 0;
   int tpdos_ = 0;
   std::bitset<128> tpdo_nodes_;  // CANopen node ids with a buffered TPDO
+  std::uint8_t sync_counter_ = 0;  // of the last SYNC sent; 0: none yet
 };
+
+class Hal;
+
+/// Lock-step after a SYNC (poll on the channels' descriptors): waits until every device of `hal`
+/// that owes an input has answered on its own bus (one channel per bus, in the HAL's order; a
+/// stray TPDO of another node does not count), at most `timeout_ns` of wall time; when no device
+/// owes one (all below SAFE-OP), `idle_ns` for NMT answers and heartbeats. Returns whether they
+/// did (true when none was owed).
+bool WaitForLockstepInputs(const Hal& hal, std::span<LockstepChannel* const> channels,
+                           std::int64_t timeout_ns, std::int64_t idle_ns) noexcept;
 
 }  // namespace hyq::hal

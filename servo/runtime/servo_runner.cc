@@ -14,38 +14,6 @@ namespace hyq::servo {
 
 // --- lock-step ---------------------------------------------------------------------------------
 
-bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channels,
-                   std::int64_t timeout_ns, std::int64_t idle_ns) noexcept {
-  int expected = 0;
-  for (std::size_t b = 0; b < hal.num_buses(); ++b)
-    for (const auto& d : hal.bus(b).devices()) expected += d.expect_inputs ? 1 : 0;
-  // one channel per bus, in the HAL's order: each device that owes an answer must have sent a
-  // TPDO on its own bus (a stray TPDO of another node does not count)
-  const bool per_device = channels.size() == hal.num_buses();
-  const auto answered = [&] {
-    int got = 0;
-    for (std::size_t b = 0; b < hal.num_buses(); ++b)
-      for (const auto& d : hal.bus(b).devices())
-        got += d.expect_inputs && channels[b]->has_tpdo_from(d.node) ? 1 : 0;
-    return got;
-  };
-  std::array<pollfd, hal::kMaxBuses> fds{};
-  std::size_t nfds = 0;
-  for (LockstepChannel* c : channels)
-    if (c->poll_fd() >= 0 && nfds < fds.size()) fds[nfds++] = {c->poll_fd(), POLLIN, 0};
-  // nothing owed (devices below SAFE-OP): only a moment for NMT answers and heartbeats
-  const std::int64_t end = MonotonicNs() + (expected == 0 ? std::min(timeout_ns, idle_ns) : timeout_ns);
-  for (;;) {
-    int got = 0;
-    for (LockstepChannel* c : channels) got += c->Pump();
-    if (per_device) got = answered();
-    if (expected > 0 && got >= expected) return true;
-    const std::int64_t left = end - MonotonicNs();
-    if (left <= 0) return expected == 0;
-    (void)poll(fds.data(), nfds, static_cast<int>(std::max<std::int64_t>(left / 1'000'000, 1)));
-  }
-}
-
 std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
                      std::span<LockstepChannel* const> channels,
                      const std::function<bool()>& abort) {
@@ -71,7 +39,7 @@ std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
     }
     if (config.clock == ClockMode::kLockstep) {
       // devices that owe no TPDO yet answer NMT commands: give them a moment of wall time
-      (void)WaitForInputs(hal, channels, 200'000'000, 20'000'000);
+      (void)hal::WaitForLockstepInputs(hal, channels, 200'000'000, 20'000'000);
       now += period;
     } else {
       now += period;
@@ -111,7 +79,7 @@ void RunLockstep(ServoLoop& loop, const hal::Hal& hal, const ServoConfig& config
   while (!loop.finished()) {
     now += period;
     loop.Cycle(now, 0);
-    const bool complete = WaitForInputs(hal, channels, short_waits > 0 ? short_ns : long_ns,
+    const bool complete = hal::WaitForLockstepInputs(hal, channels, short_waits > 0 ? short_ns : long_ns,
                                         std::min<std::int64_t>(short_ns, 1'000'000));
     if (!complete) short_waits = 1000;
     else if (short_waits > 0) --short_waits;

@@ -27,12 +27,6 @@ namespace hyq::servo {
 
 using hal::LockstepChannel;
 
-/// Waits (poll on the channels' descriptors) until the channels hold as many TPDOs as the HAL's
-/// devices owe for the last SYNC, at most `timeout_ns` of wall time; when no device owes one
-/// (all below SAFE-OP), `idle_ns` for NMT answers and heartbeats. Returns whether they did.
-bool WaitForInputs(const hal::Hal& hal, std::span<LockstepChannel* const> channels,
-                   std::int64_t timeout_ns, std::int64_t idle_ns) noexcept;
-
 /// Brings every device to OP with the configured clock (throws hal::ConfigError with the HAL's
 /// report on timeout); returns the time of the last bring-up cycle. `channels` is empty in real
 /// time. `abort` (may be empty) is asked every cycle: true ends the bring-up at once with a

@@ -98,4 +98,39 @@ TEST(LockstepChannel, KnowsWhichNodesAnswered) {
 }
 
 }  // namespace
+// A late answer to an earlier SYNC is not an answer to the one just sent: a lock-step master that
+// counted it would run its next cycle without the device's current input.
+TEST(LockstepChannel, CountsOnlyAnswersToTheLastSync) {
+  LoopbackBus bus("t", 2, 16, true);
+  LockstepChannel ls(std::make_unique<EndpointView>(bus.endpoint(0)));
+  std::size_t sent = 0;
+  const std::array<CanFrame, 1> sync7{EncodeSync(7)};
+  ASSERT_EQ(ls.Send(sync7, &sent), CanStatus::kOk);
+  ActuatorTpdo late, now;
+  late.sync_counter = 6;
+  now.sync_counter = 7;
+  ImuTpdo imu_late, imu_now;
+  imu_late.sync_counter = 6;
+  imu_now.sync_counter = 7;
+  const std::array<CanFrame, 2> old_answers{EncodeActuatorTpdo(3, late), EncodeImuTpdo(16, imu_late)};
+  ASSERT_EQ(bus.endpoint(1).Send(old_answers, &sent), CanStatus::kOk);
+  EXPECT_EQ(ls.Pump(), 0);
+  EXPECT_FALSE(ls.has_tpdo_from(3));
+  EXPECT_FALSE(ls.has_tpdo_from(16));
+  const std::array<CanFrame, 2> answers{EncodeActuatorTpdo(3, now), EncodeImuTpdo(16, imu_now)};
+  ASSERT_EQ(bus.endpoint(1).Send(answers, &sent), CanStatus::kOk);
+  EXPECT_EQ(ls.Pump(), 2);
+  EXPECT_TRUE(ls.has_tpdo_from(3));
+  EXPECT_TRUE(ls.has_tpdo_from(16));
+  // the next SYNC: what is buffered answered the previous one
+  const std::array<CanFrame, 1> sync8{EncodeSync(8)};
+  ASSERT_EQ(ls.Send(sync8, &sent), CanStatus::kOk);
+  EXPECT_EQ(ls.Pump(), 0);
+  EXPECT_FALSE(ls.has_tpdo_from(3));
+  std::array<CanFrame, 8> rx;
+  std::size_t n = 0;
+  EXPECT_EQ(ls.Receive(rx, &n), CanStatus::kOk);
+  EXPECT_EQ(n, 4u);  // the HAL still gets every frame, late ones included
+}
+
 }  // namespace hyq::hal

@@ -109,34 +109,29 @@ struct UdpMaster {
     }
     return false;
   }
-  int Expected() const {
-    int n = 0;
-    for (std::size_t b = 0; b < hal->num_buses(); ++b)
-      for (const auto& d : hal->bus(b).devices())
-        n += d.state == hal::DeviceState::kSafeOp || d.state == hal::DeviceState::kOp;
-    return n;
-  }
-  /// Waits for `expected` TPDOs (at most timeout_ns of wall time).
-  bool WaitForInputs(int expected, std::int64_t timeout_ns) {
-    return WaitForTpdos(master, fds, expected, timeout_ns, /*spin=*/false);
+  /// Lock-step after a SYNC: waits for the TPDO of every device that owes one (2 s is a guard for
+  /// a dropped frame, not a window a busy machine must meet); with none owed (early bring-up), at
+  /// most 2 ms for NMT answers and heartbeats.
+  bool AwaitAnswers(std::int64_t timeout_ns = 2'000'000'000) {
+    std::vector<hal::LockstepChannel*> c;
+    for (auto& m : master) c.push_back(m.get());
+    return hal::WaitForLockstepInputs(*hal, c, timeout_ns, 2'000'000);
   }
   hal::HalStatus Cycle(const std::function<void(hal::ProcessImage&)>& controller = {}) {
     const hal::HalStatus r = hal->Read(now());
     if (controller) controller(hal->image());
     (void)hal->Write(now());
     ++cycles;
-    // all 13 expected: wait for them (lock-step; 2 s is a guard for a dropped frame, not a
-    // window a busy machine must meet); otherwise (bring-up) at most 2 ms
-    (void)WaitForInputs(13, Expected() == 13 ? 2'000'000'000 : 2'000'000);
+    (void)AwaitAnswers();
     return r;
   }
   void BringUp() {
     hal::RunBringUp(*hal, hal::DeviceState::kOp, now(), [this] {
       ++cycles;
-      (void)WaitForInputs(13, Expected() == 13 ? 2'000'000'000 : 2'000'000);
+      (void)AwaitAnswers();
       return now();
     });
-    (void)WaitForInputs(13, 200'000'000);
+    (void)AwaitAnswers(200'000'000);
   }
   hal::HalConfig cfg;
   std::vector<std::unique_ptr<hal::LockstepChannel>> master;
