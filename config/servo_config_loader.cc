@@ -149,7 +149,8 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     const std::string tp = "controller.two_stage";
     r.Keys(t, tp, {"objective", "horizon_s", "project_contact_velocity", "max_iterations",
                    "stage2_max_iterations", "time_budget_us", "tangent_directions", "stage2",
-                   "null_space_tolerance", "frictionless_mu", "optimal_set_tolerance"});
+                   "null_space_tolerance", "frictionless_mu", "optimal_set_tolerance",
+                   "velocity_consistent_qdd"});
     auto& s = cc.id;
     if (t["objective"].IsDefined())
       s.objective = r.OneOf(t, tp, "objective", {"maximum_dissipation", "kinetic_energy"}) ==
@@ -158,13 +159,14 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
                         : servo::StageOneObjective::kMaximumDissipation;
     s.horizon_s = Bounded(r, t, tp, "horizon_s", s.horizon_s, 0.0, 0.1);
     s.project_contact_velocity = BoolOr(r, t, tp, "project_contact_velocity", s.project_contact_velocity);
+    s.velocity_consistent_qdd = BoolOr(r, t, tp, "velocity_consistent_qdd", s.velocity_consistent_qdd);
     s.max_iterations = BoundedInt(r, t, tp, "max_iterations", s.max_iterations, 10, 10000);
     s.stage2_max_iterations = BoundedInt(r, t, tp, "stage2_max_iterations", s.stage2_max_iterations, 10, 10000);
     s.tangent_directions = BoundedInt(r, t, tp, "tangent_directions", s.tangent_directions, 4, 4);
     s.stage2 = BoolOr(r, t, tp, "stage2", s.stage2);  // the stage1 kind turns it off regardless
     s.null_space_tolerance = Bounded(r, t, tp, "null_space_tolerance", s.null_space_tolerance, 1e-15, 1e-3);
     s.frictionless_mu = Bounded(r, t, tp, "frictionless_mu", s.frictionless_mu, 0.0, 0.01);
-    // absent: Stage II not held in Stage I's optimal set (eq 9); e.g. 1e-9 holds it there
+    // Stage II held in Stage I's optimal set (eq 9) with this rounding tolerance; 1 drops the row
     s.optimal_set_tolerance = Bounded(r, t, tp, "optimal_set_tolerance", s.optimal_set_tolerance, 0.0, 1.0);
     if (t["time_budget_us"].IsDefined())
       s.time_budget = std::chrono::nanoseconds(static_cast<std::int64_t>(

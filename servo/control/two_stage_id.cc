@@ -118,6 +118,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
     return IdStatus::kOk;
   }
 
+  consistent_ = in;
   if (settings_.project_contact_velocity) {
     // v ← v − M⁻¹J_cᵀ (J_c M⁻¹ J_cᵀ)⁻¹ J_c v: the velocity an inelastic impact of the stance
     // contacts would leave (M-orthogonal projection onto J_c v = 0), so the method does not try
@@ -138,15 +139,14 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
     for (int i = 0; i < set_.count; ++i)
       G.middleRows<3>(3 * i).noalias() = set_.J_c[i] * MiJt;
     proj_llt_.compute(G);
-    consistent_ = in;
     if (proj_llt_.info() == Eigen::Success) {
       const Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> lam = proj_llt_.solve(Jv);
       consistent_.v.noalias() -= MiJt * lam;
     }
-    RunStage1(dyn, consistent_, f_id);
-  } else {
-    RunStage1(dyn, in, f_id);
   }
+  if (settings_.velocity_consistent_qdd)
+    (void)MakeVelocityConsistent(set_, consistent_.v, h, &consistent_.qdd_des);
+  RunStage1(dyn, consistent_, f_id);
   out->stage1 = {true, s1_.status, s1_.objective, s1_.iterations, s1_.solve_time_s};
   if (s1_.status != qp::Status::kOptimal) {
     ++counters_.stage1_failed;
@@ -178,6 +178,44 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
     return IdStatus::kFallback;
   }
   return IdStatus::kOk;
+}
+
+// Stance foot i on leg l: J_c,i (v + h v̇) = 0 with v̇ = [a_b; q̈] gives
+//   q̈_l = c_i + K_i a_b,  K_i = −J_q,i⁻¹ J_b,i,  c_i = −J_q,i⁻¹ J_c,i v / h
+// (J_q,i: the 3 × 3 block of the leg's joints, J_b,i: the base columns). The consistent stance
+// accelerations are c + range(K); the Euclidean projection of q̈_des onto them is
+// c + Π_range(K) (q̈_des − c). One foot: K is 3 × 6 of rank 3, nothing to do.
+bool MakeVelocityConsistent(const ContactSet& set, const VectorV& v, double h,
+                            VectorJ* qdd_des) noexcept {
+  const int n = set.count;
+  if (n <= 1) return true;
+  Eigen::Matrix<double, Eigen::Dynamic, kB, Eigen::ColMajor, 3 * kMaxContacts, kB> K(3 * n, kB);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 3 * kMaxContacts, 1> c(3 * n), x(3 * n);
+  for (int i = 0; i < n; ++i) {
+    const int first = dynamics::JointIndex(set.foot[i], 0);
+    const Eigen::Matrix3d Jq = set.J_c[i].middleCols<dynamics::kJointsPerLeg>(kB + first);
+    const double scale = Jq.norm();
+    if (!(std::abs(Jq.determinant()) > 1e-9 * scale * scale * scale)) return false;  // knee straight
+    const Eigen::Matrix3d Jq_inv = Jq.inverse();
+    K.middleRows<3>(3 * i).noalias() = -Jq_inv * set.J_c[i].leftCols<kB>();
+    c.segment<3>(3 * i).noalias() = -Jq_inv * (set.J_c[i] * v) / h;
+    x.segment<3>(3 * i) = qdd_des->segment<dynamics::kJointsPerLeg>(first) - c.segment<3>(3 * i);
+  }
+  // the projection onto range(K) = span of the first rank(K) columns of K's QR: with two feet K
+  // is 6 × 6 of rank 5 (turning about the line through both feet moves neither), an exact
+  // deficiency whose rounding must not count as rank
+  Eigen::ColPivHouseholderQR<decltype(K)> qr;
+  qr.setThreshold(1e-9);
+  qr.compute(K);
+  const int rank = static_cast<int>(qr.rank());
+  x.applyOnTheLeft(qr.householderQ().setLength(rank).adjoint());
+  x.tail(3 * n - rank).setZero();
+  x.applyOnTheLeft(qr.householderQ().setLength(rank));
+  if (!x.allFinite()) return false;
+  for (int i = 0; i < n; ++i)
+    qdd_des->segment<dynamics::kJointsPerLeg>(dynamics::JointIndex(set.foot[i], 0)) =
+        c.segment<3>(3 * i) + x.segment<3>(3 * i);
+  return true;
 }
 
 void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in,

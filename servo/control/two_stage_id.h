@@ -75,6 +75,14 @@ struct TwoStageSettings {
   /// compliant ground they would make a deadbeat loop of gain 1/h: docs/inverse_dynamics.md,
   /// "Measured contact velocities"). A no-op when v is already contact-consistent.
   bool project_contact_velocity = true;
+  /// Make q̈_des velocity-level consistent with the stance contacts before Stage I
+  /// (MakeVelocityConsistent): with three or four feet a joint motion leaves, in general, no base
+  /// motion that keeps every stance foot at rest after the step of eqs 5–6, so the prescribed
+  /// v*_q makes the feet slide, Stage I's optimum is a single torque and eq 9 pins Stage II to it.
+  /// Sources: PD feedback on the stance legs, and a reference consistent at the acceleration
+  /// level (J_c v̇ = −J̇_c v) rather than at the velocity level (J_c (v + h v̇) = 0).
+  /// docs/inverse_dynamics.md, "Velocity-level consistent q̈_des".
+  bool velocity_consistent_qdd = true;
   int tangent_directions = 4;   // r
   bool stage2 = true;           // false: the paper's "Stage I only" (Fig. 1)
   int max_iterations = 500;     // Stage I QP (degenerate near-frictionless cases need ~150)
@@ -83,15 +91,22 @@ struct TwoStageSettings {
   std::optional<std::chrono::nanoseconds> time_budget;
   double null_space_tolerance = 1e-9;  // relative, rank decision for the internal forces
   /// Stage II stays in Stage I's optimal set (9) by keeping gᵀP w = 0; ‖Pᵀg‖∞ at or below this
-  /// times ‖|P|ᵀ|g|‖∞ (the size of the rounding in Pᵀg) counts as zero and adds no row; 1e-9
-  /// is the value tested. The default +∞ drops the row: with it, on the trot's micro-sliding
-  /// contacts Stage II equals Stage I and the HIL trot's tracking error rose from 0.031 to
-  /// 0.051 rad with 17 Stage II iteration limits in 5 s (docs/inverse_dynamics.md, issue 16).
-  double optimal_set_tolerance = std::numeric_limits<double>::infinity();
+  /// times ‖|P|ᵀ|g|‖∞ (the size of the rounding in Pᵀg) counts as zero and adds no row. 1 (or
+  /// more) drops the row (comparison only: Stage II may then leave Stage I's optimum on sliding
+  /// contacts; docs/inverse_dynamics.md).
+  double optimal_set_tolerance = 1e-9;
   /// A contact with μ at or below this is frictionless: its tangential impulses are fixed at 0
   /// (instead of being squeezed to 0 by nearly dependent friction rows).
   double frictionless_mu = 1e-6;
 };
+
+/// Replaces the stance legs' part of *qdd_des by its Euclidean projection onto the joint
+/// accelerations that, with some base acceleration, bring every stance contact point to rest
+/// after one step of h from v: {q̈ : ∃ a_b, J_c (v + h [a_b; q̈]) = 0}. Swing legs are untouched;
+/// with one stance foot every q̈ qualifies (with two, all but turning about the line between them). Returns false, leaving *qdd_des as given,
+/// when a stance leg's 3 × 3 joint block is singular (knee straight). Never allocates.
+bool MakeVelocityConsistent(const ContactSet& set, const VectorV& v, double h,
+                            VectorJ* qdd_des) noexcept;
 
 enum class [[nodiscard]] IdStatus : std::uint8_t { kOk, kFallback, kBadInput };
 const char* ToString(IdStatus s) noexcept;

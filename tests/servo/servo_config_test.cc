@@ -112,6 +112,26 @@ TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
   EXPECT_STREQ(why, "kd_scale: expected [0.5, 1.5], found 1.6");
 }
 
+TEST(ServoConfigYaml, TwoStageKeysReachTwoStageSettings) {
+  const servo::TwoStageSettings defaults;
+  EXPECT_TRUE(defaults.velocity_consistent_qdd);
+  EXPECT_DOUBLE_EQ(defaults.optimal_set_tolerance, 1e-9);  // eq 9 held by default
+  const servo::ServoConfig c = Parse(R"(  two_stage:
+    velocity_consistent_qdd: false
+    optimal_set_tolerance: 1.0
+    project_contact_velocity: false
+    frictionless_mu: 0.001
+)");
+  EXPECT_FALSE(c.controller.id.velocity_consistent_qdd);
+  EXPECT_DOUBLE_EQ(c.controller.id.optimal_set_tolerance, 1.0);
+  EXPECT_FALSE(c.controller.id.project_contact_velocity);
+  EXPECT_DOUBLE_EQ(c.controller.id.frictionless_mu, 0.001);
+  // the shipped robot file spells out the defaults
+  const servo::ServoConfig robot = config::LoadServoConfig(kConfigDir / "hyq_servo.yaml");
+  EXPECT_TRUE(robot.controller.id.velocity_consistent_qdd);
+  EXPECT_DOUBLE_EQ(robot.controller.id.optimal_set_tolerance, 1e-9);
+}
+
 TEST(ServoConfigYaml, ShippedFilesKeepTheirPublishingRates) {
   const servo::ServoConfig robot = config::LoadServoConfig(kConfigDir / "hyq_servo.yaml");
   EXPECT_EQ(robot.telemetry.joint_state_every, 1u);
