@@ -10,18 +10,6 @@
 #include "hal/protocol.h"
 
 namespace hyq::hal {
-namespace {
-
-// The SYNC counter a TPDO1 answers (ActuatorTpdo byte 14, ImuTpdo byte 26); 0 for a layout
-// without one.
-std::uint8_t AnsweredSync(const CanFrame& f) noexcept {
-  if (f.len == 16) return f.data[14];
-  if (f.len == 32) return f.data[26];
-  return 0;
-}
-
-}  // namespace
-
 LockstepChannel::LockstepChannel(std::unique_ptr<CanChannel> inner)
     : inner_(std::move(inner)) {
   buffer_.resize(kBufferFrames);
@@ -63,7 +51,7 @@ int LockstepChannel::Pump() noexcept {
     for (std::size_t i = tail_; i < tail_ + n; ++i) {
       const CanFrame& f = buffer_[i];
       if (f.is_extended() || f.is_error() || (f.id & 0x780u) != cob::kTpdo1) continue;
-      const std::uint8_t answers = AnsweredSync(f);
+      const std::uint8_t answers = TpdoSyncCounter(f);
       if (sync_counter_ != 0 && answers != 0 && answers != sync_counter_) continue;  // late
       ++tpdos_;
       tpdo_nodes_.set(f.id & 0x7fu);

@@ -210,6 +210,12 @@ PdoStatus DecodeEmcy(const CanFrame& f, std::uint8_t node, EmcyMessage* m) noexc
   return PdoStatus::kOk;
 }
 
+std::uint8_t TpdoSyncCounter(const CanFrame& f) noexcept {
+  if (f.len == kActuatorTpdoLen) return f.data[14];
+  if (f.len == kImuTpdoLen) return f.data[26];
+  return 0;
+}
+
 PdoStatus DecodeActuatorTpdo(const CanFrame& f, std::uint8_t node, ActuatorTpdo* p) noexcept {
   const PdoStatus s = CheckNodeFrame(f, cob::kTpdo1, node, kActuatorTpdoLen);
   if (s != PdoStatus::kOk) return s;

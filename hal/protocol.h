@@ -157,6 +157,10 @@ PdoStatus DecodeActuatorTpdo(const CanFrame& f, std::uint8_t node, ActuatorTpdo*
 PdoStatus DecodeActuatorRpdo(const CanFrame& f, std::uint8_t node, ActuatorRpdo* p) noexcept;
 PdoStatus DecodeImuTpdo(const CanFrame& f, std::uint8_t node, ImuTpdo* p) noexcept;
 
+/// The SYNC counter a TPDO1 answers (ActuatorTpdo byte 14 or ImuTpdo byte 26, told apart by
+/// length), without decoding the rest; 0 for a frame of neither layout.
+std::uint8_t TpdoSyncCounter(const CanFrame& f) noexcept;
+
 /// The counter after `c` on the SYNC counter's 1..240 cycle.
 constexpr std::uint8_t NextSyncCounter(std::uint8_t c) noexcept {
   return static_cast<std::uint8_t>(c >= kSyncCounterMax ? 1 : c + 1);

@@ -90,6 +90,7 @@ struct UdpMaster {
     for (const std::string& s : specs) {
       master.push_back(std::make_unique<hal::LockstepChannel>(drivers::OpenChannel(s)));
       m.push_back(master.back().get());
+      channels.push_back(master.back().get());
       fds.push_back({master.back()->poll_fd(), POLLIN, 0});
     }
     hal = std::make_unique<hal::Hal>(cfg, m);
@@ -113,9 +114,7 @@ struct UdpMaster {
   /// a dropped frame, not a window a busy machine must meet); with none owed (early bring-up), at
   /// most 2 ms for NMT answers and heartbeats.
   bool AwaitAnswers(std::int64_t timeout_ns = 2'000'000'000) {
-    std::vector<hal::LockstepChannel*> c;
-    for (auto& m : master) c.push_back(m.get());
-    return hal::WaitForLockstepInputs(*hal, c, timeout_ns, 2'000'000);
+    return hal::WaitForLockstepInputs(*hal, channels, timeout_ns, 2'000'000);
   }
   hal::HalStatus Cycle(const std::function<void(hal::ProcessImage&)>& controller = {}) {
     const hal::HalStatus r = hal->Read(now());
@@ -135,6 +134,7 @@ struct UdpMaster {
   }
   hal::HalConfig cfg;
   std::vector<std::unique_ptr<hal::LockstepChannel>> master;
+  std::vector<hal::LockstepChannel*> channels;  // the same, as the lock-step wait takes them
   std::vector<pollfd> fds;
   std::unique_ptr<hal::Hal> hal;
   std::int64_t cycles = 0;
