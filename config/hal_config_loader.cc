@@ -24,8 +24,12 @@ hal::TimingConfig ReadTiming(const Reader& r, const YAML::Node& root) {
   hal::TimingConfig t;
   if (!root["timing"].IsDefined()) return t;
   const YAML::Node n = r.Map(root, "", "timing");
+  if (n["max_missed_cycles"].IsDefined())
+    r.Fail(n["max_missed_cycles"], "timing.max_missed_cycles",
+           "timing.max_held_cycles (renamed: the one hold limit for late or missing inputs, "
+           "which the safety layer shares)", "the old name");
   r.Keys(n, "timing", {"cycle_period_s", "state_timeout_s", "bringup_timeout_s",
-                       "heartbeat_period_s", "heartbeat_timeout_s", "max_missed_cycles",
+                       "heartbeat_period_s", "heartbeat_timeout_s", "max_held_cycles",
                        "min_valid_cycles_for_op", "device_setpoint_timeout_s"});
   t.cycle_period_s = r.NumberOr(n, "timing", "cycle_period_s", t.cycle_period_s);
   t.state_timeout_s = r.NumberOr(n, "timing", "state_timeout_s", t.state_timeout_s);
@@ -34,8 +38,8 @@ hal::TimingConfig ReadTiming(const Reader& r, const YAML::Node& root) {
   t.heartbeat_timeout_s = r.NumberOr(n, "timing", "heartbeat_timeout_s", t.heartbeat_timeout_s);
   t.device_setpoint_timeout_s =
       r.NumberOr(n, "timing", "device_setpoint_timeout_s", t.device_setpoint_timeout_s);
-  if (n["max_missed_cycles"].IsDefined())
-    t.max_missed_cycles = static_cast<int>(r.Integer(n, "timing", "max_missed_cycles", 0, 1000));
+  if (n["max_held_cycles"].IsDefined())
+    t.max_held_cycles = static_cast<int>(r.Integer(n, "timing", "max_held_cycles", 0, 1000));
   if (n["min_valid_cycles_for_op"].IsDefined())
     t.min_valid_cycles_for_op =
         static_cast<int>(r.Integer(n, "timing", "min_valid_cycles_for_op", 1, 100000));

@@ -219,7 +219,16 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
     auto& s = c.realtime;
     s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
     s.priority = BoundedInt(r, n, p, "priority", s.priority, 1, 99);
-    s.cpu = BoundedInt(r, n, p, "cpu", s.cpu, -1, 1023);
+    if (n["cpu"].IsDefined() && n["cpu"].IsScalar() && n["cpu"].Scalar() == "auto") {
+      s.cpu = servo::kAutoCpu;  // where two cores exist (servo::ResolveCpu)
+    } else if (n["cpu"].IsDefined()) {
+      try {
+        s.cpu = BoundedInt(r, n, p, "cpu", s.cpu, -1, 1023);
+      } catch (const hal::ConfigError&) {
+        r.Fail(n["cpu"], "realtime.cpu", "an integer in [-1, 1023] or 'auto'",
+               n["cpu"].IsScalar() ? "'" + n["cpu"].Scalar() + "'" : std::string("a non-scalar"));
+      }
+    }
     s.lock_memory = BoolOr(r, n, p, "lock_memory", s.lock_memory);
     s.prefault_stack_kib = static_cast<std::uint32_t>(
         BoundedInt(r, n, p, "prefault_stack_kib", static_cast<int>(s.prefault_stack_kib), 0, 8192));
@@ -235,10 +244,16 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
   {
     const YAML::Node n = Section(r, root, "safety");
     const std::string p = "safety";
+    // the safety layer's own tolerance for missing inputs is gone: one policy, the HAL's (#17)
+    if (n["max_missing_cycles"].IsDefined())
+      r.Fail(n["max_missing_cycles"], "safety.max_missing_cycles",
+             "no such key: a late or missing input is held for up to timing.max_held_cycles "
+             "of the HAL file (robot.hal) and the next one is a fault; set it there",
+             "the key, which the safety layer no longer has");
     r.Keys(n, p, {"position_margin_rad", "max_velocity_rad_s", "max_position_jump_rad",
                   "max_measured_torque_Nm", "max_gyro_rad_s", "max_accel_m_s2",
-                  "max_missing_cycles", "max_tilt_rad", "damping_Nms_per_rad",
-                  "damping_duration_s", "damp_on_bad_command"});
+                  "max_tilt_rad", "damping_Nms_per_rad", "damping_duration_s",
+                  "damp_on_bad_command"});
     auto& s = c.safety;
     s.position_margin_rad = Bounded(r, n, p, "position_margin_rad", s.position_margin_rad, 0.0, 1.0);
     s.max_velocity_rad_s = Bounded(r, n, p, "max_velocity_rad_s", s.max_velocity_rad_s, 0.1, 100.0);
@@ -246,7 +261,6 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
     s.max_measured_torque_Nm = Bounded(r, n, p, "max_measured_torque_Nm", s.max_measured_torque_Nm, 1.0, 1e5);
     s.max_gyro_rad_s = Bounded(r, n, p, "max_gyro_rad_s", s.max_gyro_rad_s, 0.1, 100.0);
     s.max_accel_m_s2 = Bounded(r, n, p, "max_accel_m_s2", s.max_accel_m_s2, 1.0, 1e4);
-    s.max_missing_cycles = BoundedInt(r, n, p, "max_missing_cycles", s.max_missing_cycles, 1, 1000);
     s.max_tilt_rad = Bounded(r, n, p, "max_tilt_rad", s.max_tilt_rad, 0.05, 3.2);
     s.damping_Nms_per_rad = Bounded(r, n, p, "damping_Nms_per_rad", s.damping_Nms_per_rad, 0.0, kMaxKdTau);
     s.damping_duration_s = Bounded(r, n, p, "damping_duration_s", s.damping_duration_s, 0.0, 60.0);

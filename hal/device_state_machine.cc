@@ -130,7 +130,7 @@ std::optional<DeviceState> OperationalFault(DeviceRuntime& d, const DeviceEvent&
 // error is latched and the inputs have been valid for min_valid_cycles_for_op cycles.
 DeviceState SafeOpEnter(DeviceRuntime& d, StateMachineContext&) noexcept {
   d.enable_requested = false;
-  d.consecutive_missed = 0;  // SAFE-OP gets its own max_missed_cycles window
+  d.consecutive_missed = 0;  // SAFE-OP gets its own max_held_cycles window
   return DeviceState::kSafeOp;
 }
 DeviceState SafeOpFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineContext&) noexcept {
@@ -144,7 +144,7 @@ DeviceState SafeOpFrame(DeviceRuntime& d, const DeviceEvent& e, StateMachineCont
 DeviceState SafeOpCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
   if (d.target < DeviceState::kSafeOp) return LeaveDownwards(d, ctx);
   if (HeartbeatLost(d, ctx)) return Fault(d, DeviceError::kHeartbeatLost, DeviceState::kInit);
-  if (d.consecutive_missed > ctx.timing->max_missed_cycles)
+  if (d.consecutive_missed > ctx.timing->max_held_cycles)
     return Fault(d, DeviceError::kInputsLost, DeviceState::kPreOp);
   if (d.fault_reset_grace > 0) --d.fault_reset_grace;  // the reset is on its way to the device
   else if (d.consecutive_valid > 0 && (d.last_status & status_bit::kFault) != 0 && !d.error_latched)
@@ -182,7 +182,7 @@ DeviceState OpCycle(DeviceRuntime& d, StateMachineContext& ctx) noexcept {
   if (d.target < DeviceState::kSafeOp) return LeaveDownwards(d, ctx);
   if (d.target < DeviceState::kOp) return d.target;
   if (HeartbeatLost(d, ctx)) return Fault(d, DeviceError::kHeartbeatLost, DeviceState::kInit);
-  if (d.consecutive_missed > ctx.timing->max_missed_cycles)
+  if (d.consecutive_missed > ctx.timing->max_held_cycles)
     return Fault(d, DeviceError::kInputsLost, DeviceState::kSafeOp);
   return DeviceState::kOp;
 }
@@ -229,7 +229,7 @@ StateMachineTiming MakeStateMachineTiming(const TimingConfig& t) noexcept {
   StateMachineTiming s;
   s.state_timeout_ns = static_cast<std::int64_t>(t.state_timeout_s * 1e9);
   s.heartbeat_timeout_ns = static_cast<std::int64_t>(t.heartbeat_timeout_s * 1e9);
-  s.max_missed_cycles = static_cast<std::uint32_t>(t.max_missed_cycles);
+  s.max_held_cycles = static_cast<std::uint32_t>(t.max_held_cycles);
   s.min_valid_cycles_for_op = static_cast<std::uint32_t>(t.min_valid_cycles_for_op);
   return s;
 }

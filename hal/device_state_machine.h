@@ -5,7 +5,7 @@
 //    │   re-sent on timeout)   when SAFE-OP is wanted)          held safe: 0 N·m, disabled)  applied)
 //    └── heartbeat lost / unexpected boot-up ◄── PRE-OP ◄── inputs lost ◄── SAFE-OP ◄── fault ┘
 //
-// A fault in OP (inputs missing for max_missed_cycles, EMCY, status-word fault, device disabled
+// A fault in OP (inputs missing for max_held_cycles, EMCY, status-word fault, device disabled
 // itself) drops to SAFE-OP and latches the error: the device stays in SAFE-OP until the error is
 // acknowledged (AcknowledgeFault), so outputs never come back on by themselves. Inputs lost in
 // SAFE-OP drop to PRE-OP; a lost heartbeat or an unexpected boot-up drops to INIT, from where
@@ -34,7 +34,7 @@ enum class DeviceError : std::uint8_t {
   kNone,
   kNoBootUp,         // no boot-up / heartbeat after NMT reset within the state timeout
   kNoInputs,         // no TPDO after NMT start within the state timeout
-  kInputsLost,       // inputs missing for more than max_missed_cycles consecutive cycles
+  kInputsLost,       // inputs missing for more than max_held_cycles consecutive cycles
   kHeartbeatLost,    // no heartbeat within the consumer timeout
   kUnexpectedReset,  // boot-up message while configured
   kLeftOperational,  // heartbeat says the device is no longer NMT operational
@@ -56,7 +56,10 @@ struct DeviceEvent {
 
 struct DeviceCounters {
   std::uint64_t valid = 0;         // cycles with exactly one valid TPDO for the current SYNC
-  std::uint64_t missing = 0;       // expected inputs that did not arrive
+  std::uint64_t missing = 0;       // expected inputs that did not arrive (held or not)
+  std::uint64_t held = 0;          // cycles the last valid input was held (at most
+                                   // max_held_cycles in a row; docs/hal.md)
+  std::uint32_t max_held_in_row = 0;  // the longest run of held cycles since start
   std::uint64_t late = 0;          // TPDOs answering an older SYNC (stale, not used)
   std::uint64_t duplicate = 0;     // more than one TPDO for the same SYNC
   std::uint64_t malformed = 0;     // frames with this node's id that failed to decode
@@ -102,7 +105,7 @@ struct DeviceRuntime {
 struct StateMachineTiming {
   std::int64_t state_timeout_ns = 500'000'000;
   std::int64_t heartbeat_timeout_ns = 350'000'000;
-  std::uint32_t max_missed_cycles = 3;
+  std::uint32_t max_held_cycles = 3;
   std::uint32_t min_valid_cycles_for_op = 5;
 };
 StateMachineTiming MakeStateMachineTiming(const TimingConfig& t) noexcept;

@@ -47,6 +47,7 @@ struct BusCounters {
   std::uint64_t tx_frames = 0;
   std::uint64_t wkc_faults = 0;      // cycles whose working counter did not match
   std::uint64_t missing = 0;         // device inputs expected but not received
+  std::uint64_t held = 0;            // of those, held (within timing.max_held_cycles in a row)
   std::uint64_t late = 0;            // TPDOs answering an older SYNC (not used)
   std::uint64_t duplicate = 0;
   std::uint64_t malformed = 0;       // frames with a device's id that failed to decode

@@ -84,9 +84,9 @@ void ValidateHalConfig(const HalConfig& config) {
   const TimingConfig& t = config.timing;
   if (!(t.cycle_period_s > 0.0) || !(t.state_timeout_s > 0.0) || !(t.bringup_timeout_s > 0.0) ||
       !(t.heartbeat_period_s > 0.0) || !(t.heartbeat_timeout_s > t.heartbeat_period_s) ||
-      t.max_missed_cycles < 0 || t.min_valid_cycles_for_op < 1)
+      t.max_held_cycles < 0 || t.min_valid_cycles_for_op < 1)
     throw ConfigError("HAL timing: expected all periods and timeouts > 0, heartbeat_timeout_s > "
-                      "heartbeat_period_s, max_missed_cycles >= 0, min_valid_cycles_for_op >= 1");
+                      "heartbeat_period_s, max_held_cycles >= 0, min_valid_cycles_for_op >= 1");
   if (!(t.master_heartbeat_period_s > 0.0) ||
       !(t.master_heartbeat_timeout_s > t.master_heartbeat_period_s))
     throw ConfigError("HAL timing: expected master_heartbeat_timeout_s > master_heartbeat_period_s "

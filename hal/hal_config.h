@@ -48,7 +48,11 @@ struct TimingConfig {
   double bringup_timeout_s = 3.0;      // all devices in the requested state within this
   double heartbeat_period_s = 0.1;     // producer heartbeat time of the boards
   double heartbeat_timeout_s = 0.35;   // consumer time: no heartbeat for this long = device lost
-  int max_missed_cycles = 3;           // consecutive cycles without inputs before OP -> SAFE-OP
+  /// The one policy for a late or missing answer (docs/hal.md, "Late or missing answers"): a
+  /// device's last valid input is held, flagged InputStatus::kHeld and counted, for up to this
+  /// many cycles in a row; the next missing one drops the device out of OP (SAFE-OP, latched)
+  /// and is a safety fault (servo InputChecker reads the same value). 3 cycles = 3 ms at 1 kHz.
+  int max_held_cycles = 3;
   int min_valid_cycles_for_op = 5;     // consecutive valid cycles in SAFE-OP before enabling
   /// The boards' own fault reaction (docs/can_protocol.md, "When the master goes silent"): a
   /// board in OPERATIONAL that gets no SYNC, or (outputs on) no set-point, for this long on its

@@ -14,7 +14,11 @@ namespace hyq::hal {
 /// Per-joint / IMU input quality in the process image.
 enum class InputStatus : std::uint8_t {
   kValid,           // exactly one TPDO answering the last SYNC arrived this cycle
-  kMissing,         // expected but not received (values are the last valid ones, see age)
+  kHeld,            // not received this cycle, within the hold limit (timing.max_held_cycles):
+                    // the values are the last valid ones, age_cycles old (docs/hal.md, "Late
+                    // or missing answers")
+  kMissing,         // expected but not received for more than max_held_cycles in a row (values
+                    // still the last valid ones; the device has left OP)
   kDuplicate,       // more than one TPDO for the same SYNC (values not updated)
   kDeviceFault,     // received, but the status word reports a fault (values updated)
   kNotOperational,  // the device is not in SAFE-OP or OP

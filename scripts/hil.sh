@@ -122,7 +122,16 @@ print(f"  cycle time       p50 {c['p50_us']:.0f} us, p99 {c['p99_us']:.0f} us, p
 if s["clock"] == "realtime":
     print(f"  wake-up latency  p50 {w['p50_us']:.0f} us, p99 {w['p99_us']:.0f} us, max {w['max_us']:.0f} us")
 print(f"  deadline misses  {s['deadline_misses']} (max {s['max_consecutive_misses']} in a row), skipped {s['skipped_cycles']}")
+hi = s.get("held_inputs", {})
+if hi:
+    print(f"  held inputs      {hi['total']} (longest run {hi['max_in_row']}, limit {hi['limit']}), late answers {hi['late_answers']}")
 print(f"  events           {', '.join(f'{k} {v}' for k, v in s['events'].items()) or 'none'}")
+if sim.get("mode") == "realtime":
+    st, sl = sim.get("stepping_thread", {}), sim.get("step_lateness", {})
+    print(f"  plant (real time) late steps {sim.get('late_steps')}, dropped {sim.get('dropped_steps')}, step lateness p99 "
+          f"{sl.get('p99_us', 0):.0f} us, max {sl.get('max_us', 0):.0f} us; stepping thread "
+          f"{'SCHED_FIFO %d' % st['priority'] if st.get('fifo') else 'SCHED_OTHER'}, "
+          f"{'CPU %d' % st['cpu'] if st.get('cpu', -1) >= 0 else 'not pinned'}")
 if sim:
     after = f" (it sat down at {sim['fell_at_s']:.2f} s, after the stop began)" if sim.get("fell") and not fell else ""
     print(f"  robot            {'FELL at %.2f s' % sim['fell_at_s'] if fell else 'did not fall while active'}{after}; "

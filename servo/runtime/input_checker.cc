@@ -17,7 +17,7 @@ std::string_view JointLabel(int j) noexcept {
 }  // namespace
 
 InputChecker::InputChecker(const SafetyLimits& limits, const hal::HalConfig& hal)
-    : limits_(limits) {
+    : limits_(limits), max_held_cycles_(static_cast<std::uint32_t>(hal.timing.max_held_cycles)) {
   for (int j = 0; j < hal::kNumJoints; ++j) {
     const auto& c = hal.joints[static_cast<std::size_t>(j)];
     q_min_[static_cast<std::size_t>(j)] = c.q_min_rad - limits.position_margin_rad;
@@ -73,7 +73,11 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
     for (std::size_t b = 0; b < hal.num_buses(); ++b)
       for (const auto& d : hal.bus(b).devices())
         if (d.state != hal::DeviceState::kOp)
-          note(MakeFault(EventReason::kDeviceFault, d.joint, static_cast<int>(b),
+          // past the hold limit (one policy, docs/hal.md) the device leaves OP for missing
+          // inputs: that is the reason, not a fault of the device
+          note(MakeFault(d.error == hal::DeviceError::kInputsLost ? EventReason::kInputMissing
+                                                                  : EventReason::kDeviceFault,
+                         d.joint, static_cast<int>(b),
                          "device node %u on bus %s left OP (%s, error %s)", d.node,
                          hal.config().buses[b].name.c_str(), hal::ToString(d.state),
                          hal::ToString(d.error)));
@@ -91,10 +95,12 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
         note(MakeFault(EventReason::kDeviceFault, j, -1, "%.*s reports a fault (status 0x%04x)",
                        static_cast<int>(label.size()), label.data(), in.status_word));
         break;
+      case hal::InputStatus::kHeld:
+        continue;  // the last valid values, checked when they were fresh (docs/hal.md)
       case hal::InputStatus::kMissing:
       case hal::InputStatus::kDuplicate:
       case hal::InputStatus::kNotOperational:
-        if (in.age_cycles >= static_cast<std::uint32_t>(limits_.max_missing_cycles))
+        if (in.age_cycles > max_held_cycles_)
           note(MakeFault(EventReason::kInputMissing, j, -1, "%.*s: no fresh input for %u cycles (%s)",
                          static_cast<int>(label.size()), label.data(), in.age_cycles, hal::ToString(in.status)));
         continue;  // stale values: nothing more to check
@@ -142,7 +148,7 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
   } else if (imu.status == hal::InputStatus::kDeviceFault) {
     note(MakeFault(EventReason::kDeviceFault, -1, -1, "IMU reports a fault (status 0x%04x)",
                    imu.status_word));
-  } else if (imu.age_cycles >= static_cast<std::uint32_t>(limits_.max_missing_cycles)) {
+  } else if (imu.status != hal::InputStatus::kHeld && imu.age_cycles > max_held_cycles_) {
     note(MakeFault(EventReason::kInputMissing, -1, -1, "IMU: no fresh input for %u cycles (%s)",
                    imu.age_cycles, hal::ToString(imu.status)));
   }

@@ -26,6 +26,7 @@ class InputChecker {
 
  private:
   SafetyLimits limits_;
+  std::uint32_t max_held_cycles_;  // the HAL's hold limit (timing.max_held_cycles): one policy
   std::array<double, hal::kNumJoints> q_min_{}, q_max_{};
   std::array<double, hal::kNumJoints> last_q_{};
   std::array<bool, hal::kNumJoints> have_last_{};

@@ -17,6 +17,19 @@ void SleepUntil(std::int64_t t_ns) noexcept {
   }
 }
 
+int ResolveCpu(int cpu, bool realtime, int preferred) noexcept {
+  if (cpu != kAutoCpu) return cpu;
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  if (!realtime || sched_getaffinity(0, sizeof allowed, &allowed) != 0) return kNoCpu;
+  int ids[CPU_SETSIZE];
+  int n = 0;
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &allowed)) ids[n++] = c;
+  if (n < 2) return kNoCpu;
+  return ids[((preferred % n) + n) % n];
+}
+
 namespace {
 
 __attribute__((noinline)) void PrefaultStack(std::size_t bytes) {

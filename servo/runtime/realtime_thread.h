@@ -9,10 +9,15 @@
 
 namespace hyq::servo {
 
+/// RealtimeConfig::cpu: do not pin, or pin where two cores exist (ResolveCpu).
+inline constexpr int kNoCpu = -1;
+inline constexpr int kAutoCpu = -2;
+
 struct RealtimeConfig {
   bool enabled = true;            // try SCHED_FIFO, affinity and mlockall (warn when refused)
   int priority = 80;              // SCHED_FIFO priority of the servo thread, 1..99
-  int cpu = -1;                   // pin the servo thread to this CPU; −1: do not pin
+  int cpu = kNoCpu;               // pin the thread to this CPU; kNoCpu: do not pin; kAutoCpu:
+                                  // see ResolveCpu
   bool lock_memory = true;        // mlockall(MCL_CURRENT | MCL_FUTURE)
   std::uint32_t prefault_stack_kib = 256;  // stack touched before the first cycle
 };
@@ -27,6 +32,13 @@ struct RealtimeReport {
 /// SCHED_FIFO at settings.priority, pinned to settings.cpu, mlockall, the stack pre-faulted.
 /// Configuration time (allocates for the report).
 RealtimeReport SetUpRealtimeThread(const RealtimeConfig& settings);
+
+/// `cpu` as SetUpRealtimeThread takes it: kAutoCpu becomes `preferred` (taken modulo the CPUs
+/// this process may run on, counted from the highest for a negative value: −1 the last one)
+/// when the real-time clock runs (`realtime`) and at least two CPUs are allowed, so that the
+/// servo thread (the last CPU) and hyq-sim's stepping thread (CPU 0) never share a core; and
+/// kNoCpu otherwise (a lock-step run, or a single core). Any other value is returned as it is.
+int ResolveCpu(int cpu, bool realtime, int preferred) noexcept;
 
 /// Sleeps until CLOCK_MONOTONIC reaches t_ns (TIMER_ABSTIME; resumed after signals).
 void SleepUntil(std::int64_t t_ns) noexcept;

@@ -11,7 +11,6 @@ struct SafetyLimits {
   double max_measured_torque_Nm = 600.0;  // |τ_measured| above this is implausible
   double max_gyro_rad_s = 20.0;
   double max_accel_m_s2 = 200.0;
-  int max_missing_cycles = 2;           // an input missing this many cycles in a row → fault
   double max_tilt_rad = 1.2;            // estimated roll or pitch beyond this → fault
   double damping_Nms_per_rad = 30.0;    // DAMPING: τ = −D q̇
   double damping_duration_s = 1.0;      // then zero torque (FAULT or STOPPED)

@@ -329,9 +329,14 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
     h.driver_dropped = c.driver_dropped;
     h.wkc_expected = hal_.bus(b).wkc().expected;
     h.wkc_received = hal_.bus(b).wkc().received;
-    for (const auto& d : hal_.bus(b).devices())
-      if (dev < kMaxDevices) s.device_state[dev++] = static_cast<std::uint8_t>(d.state);
+    for (const auto& d : hal_.bus(b).devices()) {
+      if (dev >= kMaxDevices) break;
+      s.held_inputs[dev] = d.counters.held;
+      s.max_held_in_row[dev] = d.counters.max_held_in_row;
+      s.device_state[dev++] = static_cast<std::uint8_t>(d.state);
+    }
   }
+  s.max_held_cycles = static_cast<std::uint32_t>(config_.hal.timing.max_held_cycles);
   s.num_devices = static_cast<std::uint8_t>(dev);
   s.hal_read_status = static_cast<std::uint8_t>(rs);
   s.hal_write_status = static_cast<std::uint8_t>(ws);

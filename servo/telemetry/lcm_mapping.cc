@@ -16,6 +16,8 @@ void CopyArray(const std::array<T, N>& from, U (*to)[N]) {
 // the messages' fixed arrays hold what the servo's capacities say
 static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_health::buses)> == kMaxBuses);
 static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_health::device_state)> == kMaxDevices);
+static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_health::held_inputs)> == kMaxDevices);
+static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_health::max_held_in_row)> == kMaxDevices);
 static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_joint_state::q_rad)> == kNumJoints);
 static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_contact_state::mu)> == kNumFeet);
 
@@ -118,6 +120,9 @@ void ToLcm(const TelemetrySnapshot& s, const TelemetryStats& st, hyq_lcm::lcmt_h
   }
   m.num_devices = static_cast<std::int8_t>(std::min<int>(s.num_devices, kMaxDevices));
   CopyArray(s.device_state, &m.device_state);
+  CopyArray(s.held_inputs, &m.held_inputs);
+  CopyArray(s.max_held_in_row, &m.max_held_in_row);
+  m.max_held_cycles = static_cast<std::int16_t>(std::min<std::uint32_t>(s.max_held_cycles, 32767));
   m.safety_events = static_cast<std::int64_t>(s.events);
   m.snapshots_dropped = static_cast<std::int64_t>(st.snapshots_dropped);
   m.events_dropped = static_cast<std::int64_t>(st.events_dropped);

@@ -66,6 +66,9 @@ struct TelemetrySnapshot {
   std::array<BusHealth, kMaxBuses> buses{};
   std::uint8_t num_devices = 0;
   std::array<std::uint8_t, kMaxDevices> device_state{};  // hal::DeviceState
+  std::array<std::uint64_t, kMaxDevices> held_inputs{};  // cycles a device's input was held
+  std::array<std::uint32_t, kMaxDevices> max_held_in_row{};
+  std::uint32_t max_held_cycles = 0;                     // the hold limit (HAL timing)
   std::uint8_t hal_read_status = 0, hal_write_status = 0;     // hal::HalStatus
   std::uint64_t events = 0;             // safety events so far
 };

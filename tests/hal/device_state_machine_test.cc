@@ -15,7 +15,7 @@ class StateMachine : public ::testing::Test {
   StateMachine() {
     timing_.state_timeout_ns = 100 * kMs;
     timing_.heartbeat_timeout_ns = 300 * kMs;
-    timing_.max_missed_cycles = 3;
+    timing_.max_held_cycles = 3;
     timing_.min_valid_cycles_for_op = 2;
     queue_.frames = frames_.data();
     queue_.capacity = frames_.size();
@@ -158,7 +158,7 @@ TEST_F(StateMachine, EnableTimeoutLatchesAndAcknowledgeAllowsOp) {
 
 TEST_F(StateMachine, OpFaultsGoDownAndLatch) {
   BringToOp();
-  // one missing cycle is tolerated (flagged by the bus), more than max_missed_cycles is not
+  // one missing cycle is tolerated (flagged by the bus), more than max_held_cycles is not
   for (int i = 0; i < 3; ++i) MissingInputs();
   EXPECT_EQ(d_.state, DeviceState::kOp);
   MissingInputs();

@@ -41,7 +41,7 @@ TEST(HalConfigLoader, DefaultFileEqualsTheBuiltInDefaults) {
   const hal::HalConfig d = hal::DefaultHalConfig();
   EXPECT_EQ(f.timing.cycle_period_s, d.timing.cycle_period_s);
   EXPECT_EQ(f.timing.heartbeat_timeout_s, d.timing.heartbeat_timeout_s);
-  EXPECT_EQ(f.timing.max_missed_cycles, d.timing.max_missed_cycles);
+  EXPECT_EQ(f.timing.max_held_cycles, d.timing.max_held_cycles);
   EXPECT_EQ(f.max_bus_load, d.max_bus_load);
   ASSERT_EQ(f.buses.size(), d.buses.size());
   for (std::size_t b = 0; b < f.buses.size(); ++b) {
@@ -116,6 +116,11 @@ TEST(HalConfigLoader, BadValuesNameFileLineKeyExpectedAndFound) {
 
   m = ErrorAfterEdit("range_deg: [-70, 25]", "range_deg: [25, -70]");
   EXPECT_NE(m.find("range_deg': expected min < max"), std::string::npos) << m;
+
+  // renamed (#17): the old key is refused with the new one's name, not silently ignored
+  m = ErrorAfterEdit("  max_held_cycles: 3", "  max_missed_cycles: 3");
+  EXPECT_NE(m.find("key 'timing.max_missed_cycles': expected timing.max_held_cycles"),
+            std::string::npos) << m;
 
   m = ErrorAfterEdit("direction: -1", "direction: 0");
   EXPECT_NE(m.find("encoder.direction': expected +1 or -1"), std::string::npos) << m;

@@ -112,7 +112,7 @@ TEST(HalCycle, SilentDeviceIsFlaggedDropsToSafeOpAndNeedsAnAcknowledgement) {
   EXPECT_EQ(im.wkc.expected, 13u);
   EXPECT_EQ(im.wkc.received, 12u);
   const JointInput& kfe = im.joints[kLfKfe];
-  EXPECT_EQ(kfe.status, InputStatus::kMissing);
+  EXPECT_EQ(kfe.status, InputStatus::kHeld);
   EXPECT_EQ(kfe.age_cycles, 1u);
   EXPECT_EQ(kfe.position_rad, q_before) << "flagged, not refreshed";
   for (int j = 0; j < kNumJoints; ++j)
@@ -121,7 +121,7 @@ TEST(HalCycle, SilentDeviceIsFlaggedDropsToSafeOpAndNeedsAnAcknowledgement) {
     }
   EXPECT_EQ(rig.hal->bus(0).counters().missing, 1u);
   EXPECT_EQ(rig.hal->bus(0).counters().last_fault_node, 3);
-  EXPECT_EQ(rig.Device(0, 2).state, DeviceState::kOp) << "up to max_missed_cycles tolerated";
+  EXPECT_EQ(rig.Device(0, 2).state, DeviceState::kOp) << "up to max_held_cycles tolerated";
   rig.Steps(3);
   EXPECT_EQ(rig.Device(0, 2).state, DeviceState::kSafeOp);
   EXPECT_EQ(rig.Device(0, 2).error, DeviceError::kInputsLost);
@@ -138,6 +138,46 @@ TEST(HalCycle, SilentDeviceIsFlaggedDropsToSafeOpAndNeedsAnAcknowledgement) {
   EXPECT_TRUE(rig.emu->outputs_enabled(kLfKfe));
 }
 
+// The one late-or-missing policy (docs/hal.md): held and counted for max_held_cycles cycles in a
+// row, the next missing one takes the device out of OP; the limit is the configuration's.
+TEST(HalCycle, InputsAreHeldForMaxHeldCyclesThenTheDeviceLeavesOp) {
+  for (const int limit : {1, 3, 6}) {
+    SCOPED_TRACE("max_held_cycles " + std::to_string(limit));
+    HalConfig config = DefaultHalConfig();
+    config.timing.max_held_cycles = limit;
+    HalRig rig(config);
+    SetStanding(*rig.emu);
+    rig.BringUp();
+    (void)rig.Step();
+    const double q_before = rig.hal->image().joints[kLfKfe].position_rad;
+    rig.emu->joint_faults(kLfKfe).silent = true;
+    rig.emu->SetJointState(kLfKfe, -1.0, 0.0, 0.0);
+    (void)rig.Step();  // its SYNC is the first one the board ignores
+    const JointInput& kfe = rig.hal->image().joints[kLfKfe];
+    for (int k = 1; k <= limit; ++k) {
+      (void)rig.Step();
+      EXPECT_EQ(kfe.status, InputStatus::kHeld) << "cycle " << k;
+      EXPECT_EQ(kfe.age_cycles, static_cast<std::uint32_t>(k));
+      EXPECT_EQ(kfe.position_rad, q_before) << "the last valid value is held";
+      EXPECT_EQ(rig.Device(0, 2).state, DeviceState::kOp) << "cycle " << k;
+    }
+    EXPECT_EQ(rig.Device(0, 2).counters.held, static_cast<std::uint64_t>(limit));
+    EXPECT_EQ(rig.Device(0, 2).counters.max_held_in_row, static_cast<std::uint32_t>(limit));
+    EXPECT_EQ(rig.hal->bus(0).counters().held, static_cast<std::uint64_t>(limit));
+    (void)rig.Step();  // one more: past the limit
+    EXPECT_EQ(kfe.status, InputStatus::kMissing);
+    EXPECT_EQ(rig.Device(0, 2).state, DeviceState::kSafeOp);
+    EXPECT_EQ(rig.Device(0, 2).error, DeviceError::kInputsLost);
+    EXPECT_EQ(rig.Device(0, 2).counters.held, static_cast<std::uint64_t>(limit))
+        << "a missing input past the limit is not a held one";
+    for (int j = 0; j < kNumJoints; ++j) {
+      if (j != kLfKfe) {
+        EXPECT_EQ(rig.Device(j / 3, j % 3).counters.held, 0u) << JointName(j);
+      }
+    }
+  }
+}
+
 TEST(HalCycle, LateFrameIsCountedAndNeverUsed) {
   HalRig rig;
   SetStanding(*rig.emu);
@@ -149,10 +189,10 @@ TEST(HalCycle, LateFrameIsCountedAndNeverUsed) {
   (void)rig.Step();
   EXPECT_EQ(rig.Step(), HalStatus::kWorkingCounter);  // nothing answered the last SYNC
   const JointInput& in = rig.hal->image().joints[kRhHfe];
-  EXPECT_EQ(in.status, InputStatus::kMissing);
+  EXPECT_EQ(in.status, InputStatus::kHeld);
   EXPECT_EQ(rig.hal->bus(3).counters().late, 0u);
   EXPECT_EQ(rig.Step(), HalStatus::kWorkingCounter);  // now the answer to the SYNC before arrives
-  EXPECT_EQ(in.status, InputStatus::kMissing);
+  EXPECT_EQ(in.status, InputStatus::kHeld);
   EXPECT_EQ(in.age_cycles, 2u);
   EXPECT_EQ(in.position_rad, q_before) << "the late frame's value was not used";
   EXPECT_EQ(rig.hal->bus(3).counters().late, 1u);
@@ -185,7 +225,7 @@ TEST(HalCycle, CorruptFrameIsCountedAsMalformedAndTheJointMissing) {
   rig.emu->joint_faults(0).corrupt_next = 1;
   (void)rig.Step();
   EXPECT_EQ(rig.Step(), HalStatus::kWorkingCounter);
-  EXPECT_EQ(rig.hal->image().joints[0].status, InputStatus::kMissing);
+  EXPECT_EQ(rig.hal->image().joints[0].status, InputStatus::kHeld);
   EXPECT_EQ(rig.hal->bus(0).counters().malformed, 1u);
   EXPECT_EQ(rig.Device(0, 0).counters.malformed, 1u);
   EXPECT_EQ(rig.Step(), HalStatus::kOk);
@@ -197,7 +237,7 @@ TEST(HalCycle, ImuDropIsFlagged) {
   rig.emu->imu_faults().drop_next = 1;
   (void)rig.Step();
   EXPECT_EQ(rig.Step(), HalStatus::kWorkingCounter);
-  EXPECT_EQ(rig.hal->image().imu.status, InputStatus::kMissing);
+  EXPECT_EQ(rig.hal->image().imu.status, InputStatus::kHeld);
   EXPECT_EQ(rig.Step(), HalStatus::kOk);
   EXPECT_TRUE(rig.hal->image().imu.valid());
 }

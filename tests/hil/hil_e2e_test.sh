@@ -12,6 +12,12 @@
 #       daemon reaches its safe state within 2 cycles of the fault reaching it (one period of
 #       transport), with an event REASON; both processes end without a crash; the event is in
 #       the LCM log.
+#   hil_e2e_test.sh BUILD_DIR OUT_DIR realtime [DURATION]
+#       the real-time clock (1 kHz, SCHED_FIFO daemon and plant) with the shipped configuration,
+#       DURATION s (default 5) of trot on mu = 0.1 with the two-stage ID: no fault, ACTIVE
+#       throughout, no fall, held inputs within their limit (issue 17).
+#   hil_e2e_test.sh BUILD_DIR OUT_DIR soak
+#       the same for 600 s, only with HYQ_SOAK=1 (otherwise skipped, exit 77).
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR vcan
 #       lock-step over SocketCAN (vcan0..3, CAN FD) inside ../shared/tools/run-in-vcan-vm when
 #       this kernel has no vcan: bring-up, 0.3 s of standing with the two-stage ID, clean stop.
@@ -31,6 +37,11 @@ shift 3
 here="$(cd "$(dirname "$0")/../.." && pwd)"
 py=/usr/bin/python3
 fail() { echo "hil_e2e_test: FAIL: $*" >&2; exit 1; }
+if [[ "$mode" == soak ]]; then  # the 10-minute real-time soak: a benchmark, not for every run
+  [[ "${HYQ_SOAK:-0}" == 1 ]] || { echo "SKIP: the 10-minute real-time soak runs only with HYQ_SOAK=1 (scripts/benchmark_servo.sh --soak)"; exit 77; }
+  mode=realtime
+  set -- 600
+fi
 rm -rf "$out"
 mkdir -p "$out"
 
@@ -74,6 +85,32 @@ case "$mode" in
     check_json 'sim["lockstep_forced_steps"] == 0'
     decode_log
     ;;
+  realtime)
+    # issue 17: the real-time clock with the SHIPPED configuration (config/hyq_servo_sim.yaml,
+    # config/hyq_hal.yaml: no relaxed tolerance): the daemon's servo thread and hyq-sim's stepping
+    # thread SCHED_FIFO (80 / 70), each on its own core, 1 kHz, DURATION s of trot on mu = 0.1
+    # with the two-stage ID; no fault of any kind, the daemon ACTIVE the whole time, no fall
+    dur=${1:-5}
+    "$here/scripts/hil.sh" --build "$build" --out "$out" --duration "$dur" --clock realtime --quiet
+    rc=$?
+    [[ $rc -eq 0 ]] || { tail -20 "$out/servod.log" "$out/sim.log"; fail "hil.sh --clock realtime exit $rc"; }
+    grep -h "warning" "$out/servod.log" "$out/sim.log" | head -5
+    "$py" - "$out" <<'PY'
+import json, os, sys
+out = sys.argv[1]
+s = json.load(open(os.path.join(out, "servod.json"))); sim = json.load(open(os.path.join(out, "sim.json")))
+w, k, hi = s["wakeup_latency"], s["control_time"], s["held_inputs"]
+print(f"hil_e2e_test: real time {s['active_s']:.2f} s ACTIVE, mean error {s['tracking_error_mean_rad']:.4f} rad, "
+      f"deadline misses {s['deadline_misses']} (max {s['max_consecutive_misses']} in a row), skipped {s['skipped_cycles']}, "
+      f"held inputs {hi['total']} (longest {hi['max_in_row']} of {hi['limit']}), wake-up p99.9 {w['p999_us']:.0f} us max {w['max_us']:.0f} us, "
+      f"ID mean {k['mean_us']:.1f} us max {k['max_us']:.0f} us; plant late steps {sim['late_steps']}, dropped {sim['dropped_steps']}")
+PY
+    check_json "s['final_mode'] == 'stopped' and s['active_s'] >= $dur - 0.01"
+    check_json 'set(s["events"]) <= {"bring_up_complete", "enable_command", "stop_request", "damping_done"}'
+    check_json 'not h["fell_while_active"]'
+    check_json 's["held_inputs"]["max_in_row"] <= s["held_inputs"]["limit"]'
+    check_json 's["tracking_error_mean_rad"] <= 1.5 * 0.031'
+    ;;
   fault)
     spec=$1 reason=$2
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 5 --quiet --fault "2.0:$spec"
@@ -85,7 +122,10 @@ case "$mode" in
     # the first event that left ACTIVE: its reason and how long after the fault it came (the
     # daemon's lock-step time and hyq-sim's simulated time both count SYNC periods from 0)
     check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['reason'] == '$reason'"
-    check_json "0.0 <= [e for e in s['event_log'] if e['from'] == 'active'][0]['time_s'] - 2.0 <= 0.0031"
+    # within 2 cycles of the fault reaching the daemon (one period of transport); a missing
+    # answer is first held for timing.max_held_cycles cycles (config/hyq_hal.yaml: 3, docs/hal.md)
+    held=0; [[ "$reason" == input_missing ]] && held=$(sed -n 's/^  max_held_cycles: *\([0-9]*\).*/\1/p' "$here/config/hyq_hal.yaml")
+    check_json "0.0 <= [e for e in s['event_log'] if e['from'] == 'active'][0]['time_s'] - 2.0 <= 0.0031 + 0.001 * $held"
     check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['to'] == 'damping'"
     check_json 's["final_mode"] == "stopped"'
     decode_log
@@ -143,10 +183,10 @@ EOS
     # the deadline policy relaxed: this run checks the boards' reaction, not the daemon's timing
     # on a shared 2-core machine (a daemon that stopped on its own would leave nothing to test)
     # and the late-answer tolerances too (hyq-sim steps on SCHED_OTHER beside it: issue 17)
-    sed -e 's|^  max_missed_cycles: .*|  max_missed_cycles: 200|' "$here/config/hyq_hal.yaml" > "$out/rt_hal.yaml"
+    sed -e 's|^  max_held_cycles: .*|  max_held_cycles: 200|' "$here/config/hyq_hal.yaml" > "$out/rt_hal.yaml"
     sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $out/rt_hal.yaml|" \
         "$here/config/hyq_servo_sim.yaml" > "$out/rt_servo.yaml"
-    printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\nsafety:\n  max_missing_cycles: 200\n' >> "$out/rt_servo.yaml"
+    printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$out/rt_servo.yaml"
     cat > "$out/kill9.sh" <<EOS
 #!/bin/bash
 set -u

@@ -5,7 +5,10 @@
 
 #include <cstring>
 
+#include <sched.h>
+
 #include "servo/runtime/deadline_monitor.h"
+#include "servo/runtime/realtime_thread.h"
 #include "servo/runtime/safety_state_machine.h"
 
 namespace hyq::servo {
@@ -93,4 +96,28 @@ TEST(SafetyStateMachine, AcknowledgeOutsideFaultIsRefusedWithAnEvent) {
 }
 
 }  // namespace
+// realtime.cpu: auto (config/hyq_servo_sim.yaml) and hyq-sim --cpu auto: the servo thread and the
+// plant's stepping thread on different cores where two exist, nothing pinned in lock-step
+TEST(RealtimeThread, AutoCpuPinsOnlyOnTheRealTimeClockWithTwoCores) {
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  ASSERT_EQ(sched_getaffinity(0, sizeof allowed, &allowed), 0);
+  int first = -1, last = -1;
+  for (int c = 0; c < CPU_SETSIZE; ++c)
+    if (CPU_ISSET(c, &allowed)) {
+      if (first < 0) first = c;
+      last = c;
+    }
+  EXPECT_EQ(ResolveCpu(kAutoCpu, false, -1), kNoCpu) << "lock-step: not pinned";
+  EXPECT_EQ(ResolveCpu(3, false, -1), 3) << "an explicit CPU is kept";
+  EXPECT_EQ(ResolveCpu(kNoCpu, true, 0), kNoCpu);
+  if (CPU_COUNT(&allowed) < 2) {
+    EXPECT_EQ(ResolveCpu(kAutoCpu, true, -1), kNoCpu) << "one core: not pinned";
+    return;
+  }
+  EXPECT_EQ(ResolveCpu(kAutoCpu, true, -1), last) << "the servo thread: the last allowed CPU";
+  EXPECT_EQ(ResolveCpu(kAutoCpu, true, 0), first) << "the plant: the first allowed CPU";
+  EXPECT_NE(ResolveCpu(kAutoCpu, true, -1), ResolveCpu(kAutoCpu, true, 0));
+}
+
 }  // namespace hyq::servo

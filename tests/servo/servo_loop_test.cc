@@ -110,6 +110,19 @@ TEST_P(ServoFault, ReachesTheSafeStateWithinTwoCycles) {
   ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
   fc.inject(rig);
   rig.Steps(fc.transport_cycles);
+  if (fc.reason == EventReason::kInputMissing) {
+    // the one late-or-missing policy (docs/hal.md): the last valid inputs are held, and the
+    // robot stays ACTIVE on them, for timing.max_held_cycles cycles; the next one is the fault
+    const int held = rig.config.hal.timing.max_held_cycles;
+    ASSERT_GE(held, 1);
+    for (int k = 1; k <= held; ++k) {
+      rig.Step();
+      ASSERT_EQ(rig.loop->mode(), ServoMode::kActive) << fc.name << ": held cycle " << k;
+      for (const int j : fc.cut_off)
+        EXPECT_EQ(rig.hal->image().joints[static_cast<std::size_t>(j)].status, hal::InputStatus::kHeld)
+            << fc.name << ": joint " << j << ", held cycle " << k;
+    }
+  }
   int cycles = -1;
   for (int k = 1; k <= 10; ++k) {
     rig.Step();

@@ -158,6 +158,11 @@ void Visit(const hyq_lcm::lcmt_hyq_health& m, Csv& c) {
   c.Field("num_devices", "count", m.num_devices);
   for (int d = 0; d < 16; ++d)
     c.Field("device_state." + std::to_string(d), "enum", m.device_state[d]);
+  for (int d = 0; d < 16; ++d)
+    c.Field("held_inputs." + std::to_string(d), "count", m.held_inputs[d]);
+  for (int d = 0; d < 16; ++d)
+    c.Field("max_held_in_row." + std::to_string(d), "count", m.max_held_in_row[d]);
+  c.Field("max_held_cycles", "count", m.max_held_cycles);
   c.Field("safety_events", "count", m.safety_events);
   c.Field("snapshots_dropped", "count", m.snapshots_dropped);
   c.Field("events_dropped", "count", m.events_dropped);

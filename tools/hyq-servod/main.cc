@@ -5,6 +5,7 @@
 #include <signal.h>
 #include <time.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cstdio>
 #include <cstdlib>
@@ -365,7 +366,9 @@ int main(int argc, char** argv) {
     }
   }
   std::thread servo([&] {
-    rt = hyq::servo::SetUpRealtimeThread(config.realtime);
+    hyq::servo::RealtimeConfig rtc = config.realtime;
+    rtc.cpu = hyq::servo::ResolveCpu(rtc.cpu, !lockstep_clock, -1);  // auto: the last CPU
+    rt = hyq::servo::SetUpRealtimeThread(rtc);
     rt_ready.store(true, std::memory_order_release);
     if (!lockstep_clock) {
       try {
@@ -424,6 +427,26 @@ int main(int argc, char** argv) {
   const double wall_s = 1e-9 * static_cast<double>(hyq::MonotonicNs() - wall0);
 
   nlohmann::json summary = Summary(*loop, config, wall_s);
+  {
+    // the late-or-missing policy (docs/hal.md): held inputs per device, after the servo thread
+    // has ended (join above), so the HAL's counters are read without a race
+    std::uint64_t total = 0, late = 0;
+    std::uint32_t longest = 0;
+    nlohmann::json per = nlohmann::json::object();
+    for (std::size_t b = 0; b < hal->num_buses(); ++b)
+      for (const auto& d : hal->bus(b).devices()) {
+        const auto& name = config.hal.buses[b].devices[static_cast<std::size_t>(d.config_index)].name;
+        total += d.counters.held;
+        late += d.counters.late;
+        longest = std::max(longest, d.counters.max_held_in_row);
+        if (d.counters.held != 0) per[name] = d.counters.held;
+      }
+    summary["held_inputs"] = {{"total", total},
+                              {"max_in_row", longest},
+                              {"limit", config.hal.timing.max_held_cycles},
+                              {"late_answers", late},
+                              {"per_device", per}};
+  }
   if (telemetry) {
     const hyq::servo::TelemetryStats t = telemetry->stats();
     summary["command_channel"] = {{"received", t.commands_received},

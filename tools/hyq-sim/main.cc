@@ -21,6 +21,7 @@
 #include "drivers/channel_factory.h"
 #include "dynamics/urdf_loader.h"
 #include "hal/clock.h"
+#include "servo/runtime/realtime_thread.h"
 #include "tools/sim/fault_spec.h"
 #include "tools/sim/simulated_robot.h"
 
@@ -39,6 +40,10 @@ struct Options {
   std::string truth, summary;
   int truth_every = 10;
   bool quiet = false;
+  // real time only: the stepping thread below the servo thread (SCHED_FIFO 80), memory locked,
+  // on CPU 0 where two cores exist (the daemon's servo thread takes the last one)
+  int rt_priority = 70;
+  int cpu = hyq::servo::kAutoCpu;
 };
 
 [[noreturn]] void Usage(int code) {
@@ -49,7 +54,8 @@ struct Options {
       "               [--actuator-tau S] [--actuator-rate-limit NM_S] [--load-cell-noise NM]\n"
       "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--no-hold] [--seed N]\n"
       "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
-      "               [--summary FILE] [--fall-height M] [--quiet]\n"
+      "               [--summary FILE] [--fall-height M] [--rt-priority P] [--cpu N|auto]\n"
+      "               [--quiet]\n"
       "The simulated HyQ: the MuJoCo plant behind HyQ's actuator boards and IMU on CAN, driven\n"
       "by the servo daemon (or any HAL master) through NMT, SYNC and RPDOs. docs/simulation.md.\n"
       "  --config FILE          HAL configuration (default " HYQ_DEFAULT_HAL_CONFIG ")\n"
@@ -77,6 +83,10 @@ struct Options {
       "  --truth-every N        one truth row every N steps (default 10)\n"
       "  --summary FILE         JSON at exit (time, fell, min base height, SYNCs per bus, speed)\n"
       "  --fall-height M        base height below which the robot has fallen (default 0.3)\n"
+      "  --rt-priority P        realtime mode: SCHED_FIFO priority of the stepping thread, below\n"
+      "                         the servo thread's 80, with mlockall (default 70; 0: SCHED_OTHER)\n"
+      "  --cpu N|auto           realtime mode: pin the stepping thread to CPU N (-1: do not pin;\n"
+      "                         default auto: CPU 0 where two or more cores are allowed)\n"
       "  --quiet                no progress line on stderr\n");
   std::exit(code);
 }
@@ -159,7 +169,13 @@ Options Parse(int argc, char** argv) {
       o.truth_every = static_cast<int>(Number(a, value(), 1, "an integer >= 1"));
     else if (a == "--summary") o.summary = value();
     else if (a == "--fall-height") o.robot.fall_height_m = Number(a, value(), 0, "metres >= 0");
-    else if (a == "--quiet") o.quiet = true;
+    else if (a == "--rt-priority")
+      o.rt_priority = static_cast<int>(Number(a, value(), 0, "a priority 0..99"));
+    else if (a == "--cpu") {
+      const std::string v = value();
+      if (v == "auto") o.cpu = hyq::servo::kAutoCpu;
+      else o.cpu = static_cast<int>(Number(a, v, -1, "a CPU number >= -1 or auto"));
+    } else if (a == "--quiet") o.quiet = true;
     else {
       std::fprintf(stderr, "%s: unknown option '%s' (--help lists them)\n", kTool, argv[i]);
       std::exit(2);
@@ -265,6 +281,19 @@ int Run(const Options& o) {
 
   signal(SIGINT, OnSignal);
   signal(SIGTERM, OnSignal);
+  servo::RealtimeReport rt;
+  servo::RealtimeConfig rtc;
+  if (!o.lockstep && o.rt_priority > 0) {
+    rtc.priority = o.rt_priority;
+    rtc.cpu = servo::ResolveCpu(o.cpu, true, 0);
+    rt = servo::SetUpRealtimeThread(rtc);
+    for (const std::string& w : rt.warnings) std::fprintf(stderr, "%s: warning: %s\n", kTool, w.c_str());
+    if (!o.quiet)
+      std::fprintf(stderr, "%s: stepping thread %s, %s, memory %s\n", kTool,
+                   rt.fifo ? ("SCHED_FIFO " + std::to_string(rtc.priority)).c_str() : "SCHED_OTHER",
+                   rt.pinned ? ("on CPU " + std::to_string(rtc.cpu)).c_str() : "not pinned",
+                   rt.locked ? "locked" : "not locked");
+  }
   const double start_wall = WallS();
   if (o.lockstep) (void)robot.RunLockStep(g_stop, o.duration_s);
   else (void)robot.RunRealTime(g_stop, o.duration_s);
@@ -298,6 +327,21 @@ int Run(const Options& o) {
       << ",\n"
       << "  \"lockstep_forced_steps\": " << c.lockstep_forced << ",\n"
       << "  \"realtime_overruns\": " << c.realtime_overruns << ",\n"
+      << "  \"late_steps\": " << c.late_steps << ",\n"
+      << "  \"dropped_steps\": " << c.dropped_steps << ",\n";
+    auto hist = [&](const char* key, const servo::LatencyHistogram& h) {
+      s << "  \"" << key << "\": {\"count\": " << h.count() << ", \"p50_us\": "
+        << 1e-3 * static_cast<double>(h.Percentile(0.5)) << ", \"p99_us\": "
+        << 1e-3 * static_cast<double>(h.Percentile(0.99)) << ", \"p999_us\": "
+        << 1e-3 * static_cast<double>(h.Percentile(0.999)) << ", \"max_us\": "
+        << 1e-3 * static_cast<double>(h.max_ns()) << "},\n";
+    };
+    hist("step_lateness", robot.step_lateness());
+    hist("step_time", robot.step_time());
+    s << "  \"stepping_thread\": {\"fifo\": " << (rt.fifo ? "true" : "false")
+      << ", \"priority\": " << (rt.fifo ? rtc.priority : 0)
+      << ", \"cpu\": " << (rt.pinned ? rtc.cpu : -1)
+      << ", \"memory_locked\": " << (rt.locked ? "true" : "false") << "},\n"
       << "  \"faults_injected\": " << c.faults_injected << ",\n";
     // the boards at exit: their set-points, and whether they tripped on their own timer (a
     // silent master) and how long after the last SYNC / set-point

@@ -286,6 +286,7 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
                              ? static_cast<std::uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(period_ns_)))
                              : UINT64_MAX;
   const std::uint64_t start = counters_.steps;
+  std::int64_t due_ns = t0;  // when the next step is due
   while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps) {
     // channels without an fd (loopback) are polled at least every period
     if (poll(fds.data(), n, n > 1 ? 50 : 1) < 0 && errno != EINTR) break;
@@ -293,10 +294,25 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
     std::uint64_t expirations = 0;
     if (read(tfd, &expirations, sizeof expirations) == static_cast<ssize_t>(sizeof expirations) &&
         expirations > 0) {
-      // a late wake catches up (at most 10 steps at once), counted as overruns
+      // a late wake catches up (at most kMaxCatchUp steps at once), counted as overruns; the
+      // SYNCs that arrive meanwhile are answered between the steps, with the latest state
       counters_.realtime_overruns += expirations - 1;
-      const std::uint64_t due = std::min<std::uint64_t>({expirations, 10, end_steps - counters_.steps});
-      for (std::uint64_t i = 0; i < due; ++i) Step();
+      const std::uint64_t steps =
+          std::min<std::uint64_t>({expirations, kMaxCatchUp, end_steps - counters_.steps});
+      for (std::uint64_t i = 0; i < steps; ++i) {
+        const std::int64_t begin = MonotonicNs();
+        step_lateness_.Add(begin - due_ns);
+        if (begin - due_ns > period_ns_) ++counters_.late_steps;
+        Step();
+        const std::int64_t end = MonotonicNs();
+        step_time_.Add(end - begin);
+        Poll(end);
+        due_ns += period_ns_;
+      }
+      if (expirations > steps) {  // periods given up: the simulated time falls behind
+        counters_.dropped_steps += expirations - steps;
+        due_ns += static_cast<std::int64_t>(expirations - steps) * period_ns_;
+      }
     }
   }
   close(tfd);

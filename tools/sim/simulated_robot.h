@@ -44,6 +44,7 @@
 #include "hal/can_channel.h"
 #include "hal/emulator.h"
 #include "hal/hal_config.h"
+#include "servo/runtime/latency_histogram.h"
 #include "tools/sim/fault_spec.h"
 #include "tools/sim/plant.h"
 
@@ -71,11 +72,14 @@ struct SimulatedRobotCounters {
   std::uint64_t faults_injected = 0;
   std::array<std::uint64_t, hal::kMaxBuses> syncs{};  // per bus, seen on the wire
   std::uint64_t realtime_overruns = 0;  // timer periods that passed unanswered (real time)
+  std::uint64_t late_steps = 0;         // real time: steps begun more than a period after due
+  std::uint64_t dropped_steps = 0;      // real time: periods given up (more than kMaxCatchUp late)
 };
 
 class SimulatedRobot {
  public:
   static constexpr std::uint64_t kMaxSyncLead = 3;
+  static constexpr std::uint64_t kMaxCatchUp = 10;  // real time: steps taken at once when late
 
   /// channels[i] carries config.buses[i] (the device side); not owned, must outlive this.
   /// Throws (ConfigError, PlantError) at configuration time.
@@ -106,7 +110,10 @@ class SimulatedRobot {
   void Step() noexcept;
   /// Runs until `stop` or `duration_s` of simulated time (0: until stop): physics on absolute
   /// CLOCK_MONOTONIC deadlines (timerfd, TFD_TIMER_ABSTIME) every period, SYNCs answered as they
-  /// arrive (poll on the channels and the timer). Returns the steps taken.
+  /// arrive (poll on the channels and the timer), and again after every physics step, so that a
+  /// late step that catches up (at most kMaxCatchUp at once) answers a SYNC at once with the
+  /// latest state instead of after the whole catch-up. Each step's lateness (start − due) goes
+  /// into step_lateness(), its duration into step_time(). Returns the steps taken.
   std::uint64_t RunRealTime(const std::atomic<bool>& stop, double duration_s);
   /// Lock-step until `stop` or `duration_s` of simulated time (0: until stop).
   std::uint64_t RunLockStep(const std::atomic<bool>& stop, double duration_s);
@@ -122,6 +129,8 @@ class SimulatedRobot {
   const dynamics::VectorJ& measured_torque_Nm() const noexcept { return tau_measured_; }
   const ImuReading& imu_reported() const noexcept { return imu_reported_; }
   const SimulatedRobotCounters& counters() const noexcept { return counters_; }
+  const servo::LatencyHistogram& step_lateness() const noexcept { return step_lateness_; }
+  const servo::LatencyHistogram& step_time() const noexcept { return step_time_; }
   const std::vector<FaultSpec>& faults() const noexcept { return faults_; }
   Plant& plant() noexcept { return *plant_; }
   const Plant& plant() const noexcept { return *plant_; }
@@ -150,6 +159,7 @@ class SimulatedRobot {
   std::vector<FaultSpec> faults_;
   std::vector<std::uint8_t> fault_state_;  // 0 pending, 1 active, 2 done
   SimulatedRobotCounters counters_;
+  servo::LatencyHistogram step_lateness_, step_time_;  // real time only
   bool holding_;
   bool fell_ = false;
   double fell_at_s_ = 0.0;
