@@ -1,7 +1,9 @@
 // A Java agent for lcm_spy_test.sh: loaded into hyq-spy's own JVM (JDK_JAVA_OPTIONS=-javaagent:...),
 // it waits until the file STOP exists, then reads lcm-spy's channel table on the Swing event thread
 // (the same cells the window shows: Channel, Type, Num Msgs, Hz, 1/Hz, Jitter, Bandwidth,
-// Undecodable) and writes them tab-separated to OUT, header first. Nothing else in lcm-spy changes.
+// Undecodable) and writes them tab-separated to OUT, header first; then, as '# field' lines, the
+// public fields of the HYQ_HEALTH type lcm-spy decodes with (the class on lcm-spy's own class
+// path: what its message viewer lists). Nothing else in lcm-spy changes.
 //
 //   -javaagent:probe.jar=OUT,STOP
 import java.awt.Component;
@@ -49,6 +51,13 @@ public final class SpyTableProbe {
     for (Frame f : Frame.getFrames())
       if (f.isShowing()) tables(f, found);
     sb.append("# tables ").append(found.size()).append('\n');
+    try {
+      Class<?> health = Class.forName("hyq_lcm.lcmt_hyq_health", false, ClassLoader.getSystemClassLoader());
+      for (java.lang.reflect.Field f : health.getFields())
+        sb.append("# field ").append(f.getName()).append(' ').append(f.getType().getSimpleName()).append('\n');
+    } catch (ClassNotFoundException e) {
+      sb.append("# field-error ").append(e).append('\n');
+    }
     for (JTable t : found) {
       TableModel m = t.getModel();
       for (int c = 0; c < m.getColumnCount(); ++c)

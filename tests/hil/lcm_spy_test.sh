@@ -102,6 +102,12 @@ while pos + 28 <= len(data):
     pos += 28 + clen + dlen
 
 lines = [l.rstrip("\n").split("\t") for l in open(table_path) if not l.startswith("#")]
+# issue 17: the held-input counts and their limit are fields of the HEALTH type lcm-spy decodes with
+fields = {l.split()[2]: l.split()[3] for l in open(table_path) if l.startswith("# field ")}
+for need, typ in (("held_inputs", "long[]"), ("max_held_in_row", "int[]"), ("max_held_cycles", "short")):
+    if fields.get(need) != typ:
+        sys.exit(f"FAIL: lcm-spy's lcmt_hyq_health has no field {need} ({typ}); fields: {sorted(fields)}")
+print("lcm-spy's HYQ_HEALTH type carries held_inputs[], max_held_in_row[], max_held_cycles")
 header, rows = lines[0], lines[1:]
 col = {name: i for i, name in enumerate(header)}
 for need in ("Channel", "Type", "Num Msgs", "Undecodable"):
