@@ -98,15 +98,22 @@ TEST(HalCycle, TorqueSetPointsReachTheBoardsClampedAndSanitised) {
   EXPECT_EQ(rig.hal->bus(1).counters().bad_commands, 1u);
 }
 
-TEST(HalCycle, SilentDeviceIsFlaggedDropsToSafeOpAndNeedsAnAcknowledgement) {
-  HalRig rig;
+// Brings the rig to OP standing, then silences the lf_kfe board (its joint moved, unseen) and
+// runs the cycle whose SYNC is the first one it ignores; returns the last valid lf_kfe angle.
+double SilenceLfKfe(HalRig& rig) {
   SetStanding(*rig.emu);
   rig.BringUp();
   (void)rig.Step();
   const double q_before = rig.hal->image().joints[kLfKfe].position_rad;
   rig.emu->joint_faults(kLfKfe).silent = true;
   rig.emu->SetJointState(kLfKfe, -1.0, 0.0, 0.0);
-  (void)rig.Step();  // the SYNC of this cycle is the first one the board ignores
+  (void)rig.Step();
+  return q_before;
+}
+
+TEST(HalCycle, SilentDeviceIsFlaggedDropsToSafeOpAndNeedsAnAcknowledgement) {
+  HalRig rig;
+  const double q_before = SilenceLfKfe(rig);
   EXPECT_EQ(rig.Step(), HalStatus::kWorkingCounter);
   const ProcessImage& im = rig.hal->image();
   EXPECT_EQ(im.wkc.expected, 13u);
@@ -146,13 +153,7 @@ TEST(HalCycle, InputsAreHeldForMaxHeldCyclesThenTheDeviceLeavesOp) {
     HalConfig config = DefaultHalConfig();
     config.timing.max_held_cycles = limit;
     HalRig rig(config);
-    SetStanding(*rig.emu);
-    rig.BringUp();
-    (void)rig.Step();
-    const double q_before = rig.hal->image().joints[kLfKfe].position_rad;
-    rig.emu->joint_faults(kLfKfe).silent = true;
-    rig.emu->SetJointState(kLfKfe, -1.0, 0.0, 0.0);
-    (void)rig.Step();  // its SYNC is the first one the board ignores
+    const double q_before = SilenceLfKfe(rig);
     const JointInput& kfe = rig.hal->image().joints[kLfKfe];
     for (int k = 1; k <= limit; ++k) {
       (void)rig.Step();
