@@ -93,6 +93,8 @@ struct DeviceRuntime {
   // per cycle (working counter)
   bool expect_inputs = false;              // SYNC went out while the device was in SAFE-OP/OP
   std::uint8_t rx_count = 0;               // valid TPDOs for the current SYNC this cycle
+  bool held = false;                       // expected, missing, within max_held_cycles in a row:
+                                           // the last valid input is held (InputStatus::kHeld)
   std::uint32_t consecutive_missed = 0;
   std::uint32_t consecutive_valid = 0;
   std::uint16_t last_status = 0;

@@ -176,7 +176,7 @@ void Bus::Publish(const DeviceRuntime& d, ProcessImage* image) noexcept {
   if (!operational) st = InputStatus::kNotOperational;
   else if (d.rx_count == 1)
     st = (d.last_status & status_bit::kFault) != 0 ? InputStatus::kDeviceFault : InputStatus::kValid;
-  else if (d.rx_count == 0) st = InputStatus::kMissing;  // kHeld below while within the limit
+  else if (d.rx_count == 0) st = d.held ? InputStatus::kHeld : InputStatus::kMissing;
   else st = InputStatus::kDuplicate;
   const bool fresh = operational && d.rx_count == 1;
 
@@ -186,8 +186,6 @@ void Bus::Publish(const DeviceRuntime& d, ProcessImage* image) noexcept {
     m.device_state = d.state;
     if (!fresh) {
       ++m.age_cycles;
-      if (st == InputStatus::kMissing && m.age_cycles <= timing_.max_held_cycles)
-        m.status = InputStatus::kHeld;
       return;
     }
     m.age_cycles = 0;
@@ -204,8 +202,6 @@ void Bus::Publish(const DeviceRuntime& d, ProcessImage* image) noexcept {
   j.device_state = d.state;
   if (!fresh) {
     ++j.age_cycles;
-    if (st == InputStatus::kMissing && j.age_cycles <= timing_.max_held_cycles)
-      j.status = InputStatus::kHeld;
     return;
   }
   const JointCalibration& c = (*calibration_)[static_cast<std::size_t>(d.joint)];
@@ -226,7 +222,10 @@ HalStatus Bus::Read(std::int64_t now_ns, std::uint64_t cycle, ProcessImage* imag
   ++counters_.cycles;
   StateMachineContext ctx = Context(now_ns);
   HalStatus status = HalStatus::kOk;
-  for (DeviceRuntime& d : devices_) d.rx_count = 0;
+  for (DeviceRuntime& d : devices_) {
+    d.rx_count = 0;
+    d.held = false;
+  }
 
   // drain RX (bounded per cycle), decode, dispatch
   std::size_t total = 0;
@@ -281,7 +280,8 @@ HalStatus Bus::Read(std::int64_t now_ns, std::uint64_t cycle, ProcessImage* imag
       ++d.consecutive_missed;
       // the one late-or-missing policy (docs/hal.md): hold the last valid input for up to
       // max_held_cycles in a row; the state machines below drop the device out of OP after that
-      if (d.consecutive_missed <= timing_.max_held_cycles) {
+      d.held = d.consecutive_missed <= timing_.max_held_cycles;
+      if (d.held) {
         ++d.counters.held;
         ++counters_.held;
         d.counters.max_held_in_row = std::max(d.counters.max_held_in_row, d.consecutive_missed);

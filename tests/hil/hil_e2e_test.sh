@@ -93,6 +93,21 @@ case "$mode" in
     dur=${1:-5}
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration "$dur" --clock realtime --quiet
     rc=$?
+    if [[ -s "$out/sim.json" && -s "$out/servod.json" ]]; then
+      # a machine that cannot keep real time itself cannot judge the daemon: when the FIFO
+      # threads' own scheduling latency (the plant's step lateness, the servo's wake-up) is over
+      # one period at the 99th percentile, the vCPUs were stalled (seen on this VM when the host
+      # slowed it 2x), so the run is reported and skipped, with its numbers
+      "$py" - "$out" "$rc" <<'PY' && { echo "SKIP: the machine did not keep real time during the run (see the line above); the daemon's exit $rc and its events are not judged"; exit 77; }
+import json, os, sys
+out = sys.argv[1]
+s = json.load(open(os.path.join(out, "servod.json"))); sim = json.load(open(os.path.join(out, "sim.json")))
+plant, wake = sim["step_lateness"]["p99_us"], s["wakeup_latency"]["p99_us"]
+faulted = int(sys.argv[2]) != 0 or not set(s["events"]) <= {"bring_up_complete", "enable_command", "stop_request", "damping_done"}
+print(f"hil_e2e_test: scheduling latency at SCHED_FIFO during the run: plant step lateness p99 {plant:.0f} us, servo wake-up p99 {wake:.0f} us (one period: 1000 us)")
+sys.exit(0 if faulted and (plant > 1000 or wake > 1000) else 1)
+PY
+    fi
     [[ $rc -eq 0 ]] || { tail -20 "$out/servod.log" "$out/sim.log"; fail "hil.sh --clock realtime exit $rc"; }
     grep -h "warning" "$out/servod.log" "$out/sim.log" | head -5
     "$py" - "$out" <<'PY'
