@@ -43,7 +43,7 @@ for t in "${targets[@]}"; do
   read -r name _ <<<"$t"
   log="$out/$name.log"
   execs=$(grep -o 'stat::number_of_executed_units: [0-9]*' "$log" | awk '{print $2}' || true)
-  last=$(grep -E '^#[0-9]+' "$log" | grep -o 'cov: [0-9]*\|corp: [0-9]*' | tail -2 | awk '{print $2}' | paste -sd' ' || true)
+  last=$(grep -E '^#[0-9]+' "$log" | grep -o 'cov: [0-9]*\|corp: [0-9]*' | tail -n 2 | awk '{print $2}' | paste -sd' ' || true)
   crashes=$(find "$out/$name/artifacts" -type f 2>/dev/null | wc -l)
   printf '%-16s %10s %12s %8s %8s %8s\n' "$name" "$seconds" "${execs:-?}" ${last:-? ?} "$crashes"
 done

@@ -71,7 +71,7 @@ case "$mode" in
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 5 --quiet
     rc=$?
     cat "$out/servod.log" | tail -0
-    [[ $rc -eq 0 ]] || { tail -20 "$out/servod.log" "$out/sim.log"; fail "hil.sh exit $rc"; }
+    [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "hil.sh exit $rc"; }
     check_json 's["final_mode"] == "stopped" and s["active_s"] >= 4.99'
     check_json 'not h["fell_while_active"]'
     check_json 's["tracking_error_mean_rad"] <= 1.5 * 0.031'
@@ -97,18 +97,27 @@ case "$mode" in
       # a machine that cannot keep real time itself cannot judge the daemon: when the FIFO
       # threads' own scheduling latency (the plant's step lateness, the servo's wake-up) is over
       # one period at the 99th percentile, the vCPUs were stalled (seen on this VM when the host
-      # slowed it 2x), so the run is reported and skipped, with its numbers
-      "$py" - "$out" "$rc" <<'PY' && { echo "SKIP: the machine did not keep real time during the run (see the line above); the daemon's exit $rc and its events are not judged"; exit 77; }
+      # slowed it 2x); and when either thread was stalled once for longer than the hold the
+      # daemon allows (timing.max_held_cycles periods: seen on the CI machine, one 4.6 ms stall
+      # of the plant), a fault stop is the right answer to a robot that stopped answering. Then
+      # the run is reported and skipped with its numbers, provided the daemon did stop safely.
+      "$py" - "$out" "$rc" <<'PY' && { echo "SKIP: the machine did not keep real time during the run (see the line above); the daemon stopped safely (exit $rc), its tracking and events are not judged"; exit 77; }
 import json, os, sys
 out = sys.argv[1]
 s = json.load(open(os.path.join(out, "servod.json"))); sim = json.load(open(os.path.join(out, "sim.json")))
-plant, wake = sim["step_lateness"]["p99_us"], s["wakeup_latency"]["p99_us"]
+plant, wake = sim["step_lateness"], s["wakeup_latency"]
+limit_us = 1000.0 * s["held_inputs"]["limit"]
 faulted = int(sys.argv[2]) != 0 or not set(s["events"]) <= {"bring_up_complete", "enable_command", "stop_request", "damping_done"}
-print(f"hil_e2e_test: scheduling latency at SCHED_FIFO during the run: plant step lateness p99 {plant:.0f} us, servo wake-up p99 {wake:.0f} us (one period: 1000 us)")
-sys.exit(0 if faulted and (plant > 1000 or wake > 1000) else 1)
+print(f"hil_e2e_test: scheduling latency at SCHED_FIFO during the run: plant step lateness p99 {plant['p99_us']:.0f} us max {plant['max_us']:.0f} us, "
+      f"servo wake-up p99 {wake['p99_us']:.0f} us max {wake['max_us']:.0f} us (one period: 1000 us, the hold: {limit_us:.0f} us)")
+stalled = plant["p99_us"] > 1000 or wake["p99_us"] > 1000 or plant["max_us"] > limit_us or wake["max_us"] > limit_us
+if faulted and stalled and s["final_mode"] != "stopped":
+    print(f"hil_e2e_test: FAIL: the machine stalled, but the daemon ended in {s['final_mode']!r}, not stopped")
+    sys.exit(1)
+sys.exit(0 if faulted and stalled else 1)
 PY
     fi
-    [[ $rc -eq 0 ]] || { tail -20 "$out/servod.log" "$out/sim.log"; fail "hil.sh --clock realtime exit $rc"; }
+    [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "hil.sh --clock realtime exit $rc"; }
     grep -h "warning" "$out/servod.log" "$out/sim.log" | head -5
     "$py" - "$out" <<'PY'
 import json, os, sys
@@ -130,7 +139,7 @@ PY
     spec=$1 reason=$2
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 5 --quiet --fault "2.0:$spec"
     rc=$?
-    [[ $rc -eq 3 ]] || { tail -20 "$out/servod.log" "$out/sim.log"; fail "expected the daemon to stop in FAULT (exit 3), got $rc"; }
+    [[ $rc -eq 3 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "expected the daemon to stop in FAULT (exit 3), got $rc"; }
     [[ -s "$out/sim.json" ]] || fail "hyq-sim wrote no summary (did it crash?)"
     grep -q "Segmentation\|Aborted\|terminate called" "$out/servod.log" "$out/sim.log" && fail "a process crashed"
     "$py" -c "import json; [print('hil_e2e_test: event', e['cycle'], e['time_s'], e['from'], '->', e['to'], e['reason'], e['detail']) for e in json.load(open('$out/servod.json'))['event_log'][:6]]"
@@ -149,7 +158,7 @@ PY
   sigterm)
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 0 --sigterm-after 2 --quiet
     rc=$?
-    [[ $rc -eq 0 ]] || { tail -20 "$out/servod.log"; fail "hil.sh exit $rc after SIGTERM"; }
+    [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log"; fail "hil.sh exit $rc after SIGTERM"; }
     grep -q "Terminated: controlled stop" "$out/servod.log" || true
     check_json 's["final_mode"] == "stopped"'
     check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['reason'] == 'stop_request'"
@@ -187,7 +196,7 @@ kill -TERM \$sim; wait \$sim
 exit \$rc
 EOS
     chmod +x "$out/commands.sh"
-    unshare -n "$out/commands.sh" || { tail -20 "$out/servod.log"; fail "the command run failed"; }
+    unshare -n "$out/commands.sh" || { tail -n 20 "$out/servod.log"; fail "the command run failed"; }
     check_json "s['command_channel']['unauthenticated'] == 1"
     check_json "s['command_channel']['accepted'] == 2"
     check_json "[e['reason'] for e in s['event_log'] if e['from'] == 'standby' and e['to'] == 'active'] == ['enable_command']"
@@ -216,7 +225,7 @@ sleep 0.3
   --reference trot --controller two_stage --mu 0.1 --duration 0 --no-telemetry 2>"$out/servod.log" &
 servod=\$!
 sleep 4
-kill -KILL \$servod || { echo "kill9: the daemon had exited before the kill" >&2; tail -5 "$out/servod.log" >&2; kill -TERM \$sim; exit 1; }
+kill -KILL \$servod || { echo "kill9: the daemon had exited before the kill" >&2; tail -n 5 "$out/servod.log" >&2; kill -TERM \$sim; exit 1; }
 wait \$servod 2>/dev/null
 sleep 0.5
 kill -TERM \$sim; wait \$sim
@@ -277,7 +286,7 @@ EOS
       "$vm" -W -w "$out" -c 2 -m 1024 -t 900 -- "$script"
       rc=$?
     fi
-    [[ $rc -eq 0 ]] || { tail -20 "$out/servod.log" "$out/sim.log" 2>/dev/null; fail "daemon exit $rc over vcan"; }
+    [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log" 2>/dev/null; fail "daemon exit $rc over vcan"; }
     echo '{}' > "$out/hil.json"
     check_json 's["final_mode"] == "stopped" and s["active_s"] >= 0.299'
     check_json 'set(s["events"]) <= {"bring_up_complete", "enable_command", "stop_request"}'

@@ -46,7 +46,7 @@ jar cfm "$work/probe.jar" "$work/manifest.txt" -C "$work/probe" . || fail "jar p
 Xvfb -displayfd 3 -screen 0 1600x700x24 -nolisten tcp 3>"$work/display" 2>"$work/xvfb.log" &
 pids+=($!)
 for _ in $(seq 100); do [[ -s "$work/display" ]] && break; sleep 0.1; done
-[[ -s "$work/display" ]] || skip "Xvfb did not start: $(tail -3 "$work/xvfb.log" | tr '\n' ' ')"
+[[ -s "$work/display" ]] || skip "Xvfb did not start: $(tail -n 3 "$work/xvfb.log" | tr '\n' ' ')"
 export DISPLAY=":$(head -1 "$work/display")"
 echo "Xvfb on $DISPLAY"
 
