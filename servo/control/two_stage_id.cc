@@ -32,12 +32,20 @@ void ContactFreeAnswer(const dynamics::CycleDynamics& dyn, const IdInput& in,
 
 // A warm start from the previous cycle's working set can lead the dual active set into a long
 // detour that a cold start avoids (on the hard problems of two_stage_id_test, most warm
-// iteration limits solve cold in under 40 iterations): retried once cold, within the same
-// deadline, before a fallback.
+// iteration limits solve cold in under 40 iterations). The warm attempt gets at most
+// kWarmIterations (along the recorded trot a warm ID needs at most 36 for both stages); past
+// that the QP is solved again cold, with the whole budget, within the same deadline, before a
+// fallback. (A warm Stage II that spent all 500 iterations left its cold retry too little of
+// the daemon's time budget: one deadline fallback in 60 s of HIL trot.)
+constexpr int kWarmIterations = 100;
+
 qp::Status SolveWarmThenCold(qp::Solver& solver, const qp::Problem& p, qp::Budget budget,
                              qp::Solution* s) noexcept {
-  const qp::Status st = solver.Solve(p, budget, s);
-  if (st != qp::Status::kIterationLimit || !budget.warm_start) return st;
+  if (!budget.warm_start) return solver.Solve(p, budget, s);
+  qp::Budget warm = budget;
+  warm.max_iterations = std::min(budget.max_iterations, kWarmIterations);
+  const qp::Status st = solver.Solve(p, warm, s);
+  if (st != qp::Status::kIterationLimit || warm.max_iterations == budget.max_iterations) return st;
   const int used = s->iterations;
   budget.warm_start = false;
   const qp::Status retry = solver.Solve(p, budget, s);
@@ -86,7 +94,16 @@ const char* ToString(IdStatus s) noexcept {
   return "unknown";
 }
 
-TwoStageId::TwoStageId(const TwoStageSettings& settings) : settings_(settings) {
+namespace {
+qp::Settings IdQpSettings(const TwoStageSettings& s) {
+  qp::Settings q;
+  q.proximal_weight = s.qp_proximal_weight;
+  return q;
+}
+}  // namespace
+
+TwoStageId::TwoStageId(const TwoStageSettings& settings)
+    : settings_(settings), solver1_(IdQpSettings(settings)), solver2_(IdQpSettings(settings)) {
   // combinations of the r tangent directions d_k = (cos θ_k, sin θ_k) that sum to zero: the
   // null space of the 2 × r matrix [cos; sin], orthonormal (configuration time, may allocate)
   const int r = std::clamp(settings_.tangent_directions, 1, kMaxTangents);

@@ -98,6 +98,12 @@ struct TwoStageSettings {
   /// A contact with μ at or below this is frictionless: its tangential impulses are fixed at 0
   /// (instead of being squeezed to 0 by nearly dependent friction rows).
   double frictionless_mu = 1e-6;
+  /// The proximal weight of both QPs (qp::Settings::proximal_weight, relative to max H_ii); both
+  /// Hessians are singular (Stage I rank ≤ 6, Stage II rank ≤ 12 and often 1–6). The library's
+  /// 1e-7 let the outer loop shrink ε to 1e-9 on degenerate Stage II QPs, whose subproblems then
+  /// lost feasibility to rounding (primal residual 1e-7…1e-3): 32 of the 6000 solves of the
+  /// hard-problem generator fell back; with 1e-5, none (docs/inverse_dynamics.md, "Fallbacks").
+  double qp_proximal_weight = 1e-5;
 };
 
 /// Replaces the stance legs' part of *qdd_des by its Euclidean projection onto the joint

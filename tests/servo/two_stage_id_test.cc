@@ -4,6 +4,7 @@
 // Fig. 1's chatter through contact changes, the fallback chain and the heap.
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <limits>
 
 #include <gtest/gtest.h>
@@ -593,10 +594,12 @@ TEST_F(TwoStage, ZeroStanceIsContactFreeId) {
 // base accelerations up to 5 m/s² and 5 rad/s², references consistent at the velocity or the
 // acceleration level plus up to ±10 rad/s² of feedback on every joint. Each is solved cold and,
 // in runs of 20 with the same stance and small changes, warm. Every answer is finite; a
-// fallback is counted and its torque is within the effort limits. How many fall back is printed:
-// issue 16 asks for none (docs/inverse_dynamics.md, "Fallbacks").
-TEST_F(TwoStage, HardRandomProblemsSolveOrFallBackWithinLimits) {
-  std::mt19937_64 rng(1616);
+// fallback would be counted and its torque within the effort limits; issue 16 asks for none, and
+// none there are (docs/inverse_dynamics.md, "Fallbacks").
+TEST_F(TwoStage, HardRandomProblemsSolveWithoutFallback) {
+  // HYQ_ID_GENERATOR_SEED: another draw of the same generator (the test asserts on the default)
+  const char* seed = std::getenv("HYQ_ID_GENERATOR_SEED");
+  std::mt19937_64 rng(seed ? std::strtoull(seed, nullptr, 10) : 1616);
   std::uniform_real_distribution<double> u(-1.0, 1.0), unit(0.0, 1.0);
   TwoStageId warm;
   TwoStageId cold;
@@ -652,6 +655,7 @@ TEST_F(TwoStage, HardRandomProblemsSolveOrFallBackWithinLimits) {
               static_cast<unsigned long long>(c.stage2_failed));
   EXPECT_EQ(static_cast<std::uint64_t>(fallbacks),
             w.stage1_failed + w.stage2_failed + c.stage1_failed + c.stage2_failed);
+  EXPECT_EQ(fallbacks, 0);
   EXPECT_EQ(w.calls + c.calls, 2u * static_cast<std::uint64_t>(problems));
 }
 
