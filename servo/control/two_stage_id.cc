@@ -34,23 +34,35 @@ void ContactFreeAnswer(const dynamics::CycleDynamics& dyn, const IdInput& in,
 // detour that a cold start avoids (on the hard problems of two_stage_id_test, most warm
 // iteration limits solve cold in under 40 iterations). The warm attempt gets at most
 // kWarmIterations (along the recorded trot a warm ID needs at most 36 for both stages); past
-// that the QP is solved again cold, with the whole budget, within the same deadline, before a
-// fallback. (A warm Stage II that spent all 500 iterations left its cold retry too little of
-// the daemon's time budget: one deadline fallback in 60 s of HIL trot.)
+// that the QP is solved again cold, with the whole budget, within the same deadline, and then
+// once more by the last attempt below before a fallback. (A warm Stage II that spent all 500 iterations left its cold retry too
+// little of the daemon's time budget: one deadline fallback in 60 s of HIL trot.)
 constexpr int kWarmIterations = 100;
+// The last attempt, cold with a large proximal weight (relative to max H_ii): on the degenerate
+// Stage II QPs that still reach the budget from 1e-5 (ε reduced to its floor, the primal
+// residual stuck at 1e-6), 1e-2 solves them in one outer iteration of ~8 active-set changes.
+// Only a last attempt: as a start it would stop the flat directions early (docs/qp.md).
+constexpr double kLastResortProximalWeight = 1e-2;
 
-qp::Status SolveWarmThenCold(qp::Solver& solver, const qp::Problem& p, qp::Budget budget,
-                             qp::Solution* s) noexcept {
-  if (!budget.warm_start) return solver.Solve(p, budget, s);
-  qp::Budget warm = budget;
-  warm.max_iterations = std::min(budget.max_iterations, kWarmIterations);
-  const qp::Status st = solver.Solve(p, warm, s);
-  if (st != qp::Status::kIterationLimit || warm.max_iterations == budget.max_iterations) return st;
-  const int used = s->iterations;
-  budget.warm_start = false;
-  const qp::Status retry = solver.Solve(p, budget, s);
+qp::Status SolveWithRetries(qp::Solver& solver, qp::Solver& last_resort, const qp::Problem& p,
+                             qp::Budget budget, qp::Solution* s) noexcept {
+  qp::Status st;
+  int used = 0;
+  if (budget.warm_start) {
+    qp::Budget warm = budget;
+    warm.max_iterations = std::min(budget.max_iterations, kWarmIterations);
+    st = solver.Solve(p, warm, s);
+    if (st != qp::Status::kIterationLimit) return st;
+    used = s->iterations;
+    budget.warm_start = false;
+  }
+  st = solver.Solve(p, budget, s);
+  if (st == qp::Status::kIterationLimit) {
+    used += s->iterations;
+    st = last_resort.Solve(p, budget, s);
+  }
   s->iterations += used;
-  return retry;
+  return st;
 }
 
 }  // namespace
@@ -95,15 +107,18 @@ const char* ToString(IdStatus s) noexcept {
 }
 
 namespace {
-qp::Settings IdQpSettings(const TwoStageSettings& s) {
+qp::Settings IdQpSettings(double proximal_weight) {
   qp::Settings q;
-  q.proximal_weight = s.qp_proximal_weight;
+  q.proximal_weight = proximal_weight;
   return q;
 }
 }  // namespace
 
 TwoStageId::TwoStageId(const TwoStageSettings& settings)
-    : settings_(settings), solver1_(IdQpSettings(settings)), solver2_(IdQpSettings(settings)) {
+    : settings_(settings),
+      solver1_(IdQpSettings(settings.qp_proximal_weight)),
+      solver2_(IdQpSettings(settings.qp_proximal_weight)),
+      last_resort_(IdQpSettings(kLastResortProximalWeight)) {
   // combinations of the r tangent directions d_k = (cos θ_k, sin θ_k) that sum to zero: the
   // null space of the 2 × r matrix [cos; sin], orthonormal (configuration time, may allocate)
   const int r = std::clamp(settings_.tangent_directions, 1, kMaxTangents);
@@ -305,7 +320,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
     p1_.lbA(nc + i) = Frictionless(set_, i, settings_.frictionless_mu) ? -qp::kInf : 0.0;  // implied
   }
   const bool warm = have_last_ && last_stance_ == in.stance;
-  (void)SolveWarmThenCold(solver1_, p1_, MakeBudget(warm, settings_.max_iterations), &s1_);
+  (void)SolveWithRetries(solver1_, last_resort_, p1_, MakeBudget(warm, settings_.max_iterations), &s1_);
 }
 
 bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
@@ -353,7 +368,7 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
   const bool warm = last_null_dim_ == null_dim_ && have_last_;
   last_null_dim_ = null_dim_;
   const qp::Status st =
-      SolveWarmThenCold(solver2_, p2_, MakeBudget(warm, settings_.stage2_max_iterations), &s2_);
+      SolveWithRetries(solver2_, last_resort_, p2_, MakeBudget(warm, settings_.stage2_max_iterations), &s2_);
   out->stage2 = {true, st, 0.0, s2_.iterations, s2_.solve_time_s};
   if (st != qp::Status::kOptimal) {
     last_null_dim_ = -1;

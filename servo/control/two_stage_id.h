@@ -181,6 +181,7 @@ class TwoStageId {
   qp::Problem p2_;
   qp::Solution s2_;
   qp::Solver solver2_;
+  qp::Solver last_resort_;  // either stage's last attempt (SolveWithRetries)
 
   FallbackCounters counters_;
   IdInput consistent_;

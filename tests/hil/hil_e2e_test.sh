@@ -98,12 +98,11 @@ for r in csv.DictReader(open(sys.argv[1])):
               f"({r['stage1_iterations (count)']} it, {float(r['stage1_solve_us (us)']):.0f} us), Stage II "
               f"{names[int(r['stage2_status (enum)'])]} ({r['stage2_iterations (count)']} it, {float(r['stage2_solve_us (us)']):.0f} us)")
 PY
-    # issue 16 asks for none. A QP that ran out of iterations: 1 in 6 runs of 60 s still has one
-    # (a degenerate Stage II, docs/inverse_dynamics.md "Fallbacks"; before: 12-20 per run), so at
-    # most 1 per DURATION. One that ran out of its 400 us time budget (config/hyq_servo_sim.yaml)
-    # cannot be the solver's work (600 iterations, the warm attempt and the cold retry, take
-    # ~100 us) but a preempted servo thread: counted and allowed a few times (0-2 per 60 s here)
-    check_json 's["controller_fallbacks"] - s["controller_fallbacks_deadline"] <= 1'
+    # issue 16: none from a QP that ran out of iterations (before: 12-20 per 60 s run). One that
+    # ran out of its 400 us time budget (config/hyq_servo_sim.yaml) is not the solver's work (the
+    # retries' iteration budgets together take ~150 us at most) but a preempted servo thread:
+    # counted apart and allowed a few times (0-2 per 60 s seen on this 2-core VM)
+    check_json 's["controller_fallbacks"] - s["controller_fallbacks_deadline"] == 0'
     check_json 's["controller_fallbacks_deadline"] <= 5'
     ;;
   realtime)
