@@ -17,6 +17,7 @@ readonly PACKAGES=(
   default-jre   # lcm-spy is a Swing window: the AWT/X11 half of the JRE (not in -headless)
   # CAN and test references
   can-utils iproute2 python3 python3-can python3-cvxopt python3-numpy python3-matplotlib
+  libdart-utils-urdf-dev   # DART 6.12: the dynamics reference of tests/dynamics/dart_benchmark
   rt-tests xvfb x11-apps imagemagick util-linux
   # run-in-vcan-vm (../shared/tools): a stock Debian kernel with vcan under QEMU
   qemu-system-x86 busybox-static kmod
