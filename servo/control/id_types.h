@@ -63,6 +63,16 @@ struct IdOutput {
   Fallback fallback = Fallback::kNone;
 };
 
+/// Whether out's fallback came from a QP that ran out of its wall-clock budget (Stage II's for
+/// kStage1Torque, Stage I's for kContactFreeId) rather than its iterations: on a budget far above
+/// what the iterations take, a sign of a preempted thread, not of the solver.
+inline bool FellBackOnDeadline(const IdOutput& out) noexcept {
+  if (out.fallback != Fallback::kStage1Torque && out.fallback != Fallback::kContactFreeId)
+    return false;
+  const StageReport& failed = out.fallback == Fallback::kStage1Torque ? out.stage2 : out.stage1;
+  return failed.status == qp::Status::kDeadline;
+}
+
 /// Counts of each fallback taken, for telemetry.
 struct FallbackCounters {
   std::uint64_t calls = 0;

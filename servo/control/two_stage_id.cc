@@ -35,8 +35,9 @@ void ContactFreeAnswer(const dynamics::CycleDynamics& dyn, const IdInput& in,
 // iteration limits solve cold in under 40 iterations). The warm attempt gets at most
 // kWarmIterations (along the recorded trot a warm ID needs at most 36 for both stages); past
 // that the QP is solved again cold, with the whole budget, within the same deadline, and then
-// once more by the last attempt below before a fallback. (A warm Stage II that spent all 500 iterations left its cold retry too
-// little of the daemon's time budget: one deadline fallback in 60 s of HIL trot.)
+// once more by the last attempt below before a fallback. (A warm Stage II that spent all 500
+// iterations left its cold retry too little of the daemon's time budget: one deadline fallback
+// in 60 s of HIL trot.)
 constexpr int kWarmIterations = 100;
 // The last attempt, cold with a large proximal weight (relative to max H_ii): on the degenerate
 // Stage II QPs that still reach the budget from 1e-5 (ε reduced to its floor, the primal
@@ -44,8 +45,14 @@ constexpr int kWarmIterations = 100;
 // Only a last attempt: as a start it would stop the flat directions early (docs/qp.md).
 constexpr double kLastResortProximalWeight = 1e-2;
 
+qp::Settings IdQpSettings(double proximal_weight) {
+  qp::Settings q;
+  q.proximal_weight = proximal_weight;
+  return q;
+}
+
 qp::Status SolveWithRetries(qp::Solver& solver, qp::Solver& last_resort, const qp::Problem& p,
-                             qp::Budget budget, qp::Solution* s) noexcept {
+                            qp::Budget budget, qp::Solution* s) noexcept {
   qp::Status st;
   int used = 0;
   if (budget.warm_start) {
@@ -105,14 +112,6 @@ const char* ToString(IdStatus s) noexcept {
   }
   return "unknown";
 }
-
-namespace {
-qp::Settings IdQpSettings(double proximal_weight) {
-  qp::Settings q;
-  q.proximal_weight = proximal_weight;
-  return q;
-}
-}  // namespace
 
 TwoStageId::TwoStageId(const TwoStageSettings& settings)
     : settings_(settings),
@@ -320,7 +319,8 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
     p1_.lbA(nc + i) = Frictionless(set_, i, settings_.frictionless_mu) ? -qp::kInf : 0.0;  // implied
   }
   const bool warm = have_last_ && last_stance_ == in.stance;
-  (void)SolveWithRetries(solver1_, last_resort_, p1_, MakeBudget(warm, settings_.max_iterations), &s1_);
+  (void)SolveWithRetries(solver1_, last_resort_, p1_, MakeBudget(warm, settings_.max_iterations),
+                         &s1_);
 }
 
 bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
@@ -368,7 +368,8 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
   const bool warm = last_null_dim_ == null_dim_ && have_last_;
   last_null_dim_ = null_dim_;
   const qp::Status st =
-      SolveWithRetries(solver2_, last_resort_, p2_, MakeBudget(warm, settings_.stage2_max_iterations), &s2_);
+      SolveWithRetries(solver2_, last_resort_, p2_,
+                       MakeBudget(warm, settings_.stage2_max_iterations), &s2_);
   out->stage2 = {true, st, 0.0, s2_.iterations, s2_.solve_time_s};
   if (st != qp::Status::kOptimal) {
     last_null_dim_ = -1;

@@ -171,13 +171,8 @@ void ServoLoop::RunController() noexcept {
     return;
   }
   id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, env_, dt_, &out_);
-  if (out_.fallback != Fallback::kNone) {
-    ++stats_.controller_fallbacks;
-    // which QP gave up: Stage II for Stage I's torque, Stage I for the contact-free ID
-    const qp::Status failed = out_.fallback == Fallback::kStage1Torque ? out_.stage2.status
-                                                                        : out_.stage1.status;
-    if (failed == qp::Status::kDeadline) ++stats_.controller_fallbacks_deadline;
-  }
+  if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
+  if (FellBackOnDeadline(out_)) ++stats_.controller_fallbacks_deadline;
   if (const Fault f = CheckControllerOutput(controller_->kind(), id_status_, out_)) {
     safety_.Report(f);
     return;

@@ -50,7 +50,8 @@ struct Dart {
     for (auto* foot : feet) foot->setInertia(dart::dynamics::Inertia(1e-9));
     const double mass = skel->getMass(), ours = testing::HyqModel().TotalMass();
     if (std::abs(mass - ours) > 1e-8 * ours) {
-      std::fprintf(stderr, "dart_benchmark: total mass %.9f kg in DART, %.9f kg here\n", mass, ours);
+      std::fprintf(stderr, "dart_benchmark: total mass %.9f kg in DART, %.9f kg here\n", mass,
+                   ours);
       std::abort();
     }
   }
