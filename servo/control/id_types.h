@@ -64,8 +64,8 @@ struct IdOutput {
 };
 
 /// Whether out's fallback came from a QP that ran out of its wall-clock budget (Stage II's for
-/// kStage1Torque, Stage I's for kContactFreeId) rather than its iterations: on a budget far above
-/// what the iterations take, a sign of a preempted thread, not of the solver.
+/// kStage1Torque, Stage I's for kContactFreeId) rather than its iterations: a preempted thread,
+/// or a QP whose retries (SolveWithRetries) outlasted the budget.
 inline bool FellBackOnDeadline(const IdOutput& out) noexcept {
   if (out.fallback != Fallback::kStage1Torque && out.fallback != Fallback::kContactFreeId)
     return false;

@@ -53,22 +53,27 @@ qp::Settings IdQpSettings(double proximal_weight) {
 
 qp::Status SolveWithRetries(qp::Solver& solver, qp::Solver& last_resort, const qp::Problem& p,
                             qp::Budget budget, qp::Solution* s) noexcept {
+  // s reports the attempts together: their iterations and their time
   qp::Status st;
   int used = 0;
+  double spent_s = 0.0;
   if (budget.warm_start) {
     qp::Budget warm = budget;
     warm.max_iterations = std::min(budget.max_iterations, kWarmIterations);
     st = solver.Solve(p, warm, s);
     if (st != qp::Status::kIterationLimit) return st;
     used = s->iterations;
+    spent_s = s->solve_time_s;
     budget.warm_start = false;
   }
   st = solver.Solve(p, budget, s);
   if (st == qp::Status::kIterationLimit) {
     used += s->iterations;
+    spent_s += s->solve_time_s;
     st = last_resort.Solve(p, budget, s);
   }
   s->iterations += used;
+  s->solve_time_s += spent_s;
   return st;
 }
 

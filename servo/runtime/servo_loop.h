@@ -40,7 +40,7 @@ struct LoopStats {
   std::uint64_t commands_applied = 0, commands_rejected = 0;
   std::uint64_t controller_fallbacks = 0;
   /// of those, the ones whose QP ran out of its wall-clock budget (controller time_budget_us)
-  /// rather than its iterations: a preempted servo thread shows here
+  /// rather than its iterations (a preempted servo thread, or retries outlasting the budget)
   std::uint64_t controller_fallbacks_deadline = 0;
   LatencyHistogram wakeup;                    // wake-up latency
   LatencyHistogram cycle;                     // read start .. write end

@@ -603,7 +603,8 @@ TEST_F(TwoStage, HardRandomProblemsSolveWithoutFallback) {
   std::uniform_real_distribution<double> u(-1.0, 1.0), unit(0.0, 1.0);
   TwoStageId warm;
   TwoStageId cold;
-  int problems = 0, frictionless = 0, fallbacks = 0;
+  int problems = 0, frictionless = 0, fallbacks = 0, most_iterations = 0;
+  double slowest_qp_s = 0.0;
   std::array<int, 5> by_feet{};
   for (int run = 0; run < 150; ++run) {
     std::array<bool, 4> stance{};
@@ -638,6 +639,10 @@ TEST_F(TwoStage, HardRandomProblemsSolveWithoutFallback) {
         ASSERT_NE(st, IdStatus::kBadInput) << "run " << run << " cycle " << k;
         ASSERT_TRUE(o->tau_Nm.allFinite()) << "run " << run << " cycle " << k << ": " << Describe(*o);
         fallbacks += st == IdStatus::kFallback;
+        for (const StageReport* r : {&o->stage1, &o->stage2}) {
+          most_iterations = std::max(most_iterations, r->iterations);
+          slowest_qp_s = std::max(slowest_qp_s, r->solve_time_s);
+        }
         if (st != IdStatus::kFallback) continue;
         for (int j = 0; j < 12; ++j)
           EXPECT_LE(std::abs(o->tau_Nm(j)), HyqModel().limits[j].effort_Nm) << Describe(*o);
@@ -653,6 +658,8 @@ TEST_F(TwoStage, HardRandomProblemsSolveWithoutFallback) {
               static_cast<unsigned long long>(w.stage2_failed),
               static_cast<unsigned long long>(c.stage1_failed),
               static_cast<unsigned long long>(c.stage2_failed));
+  std::printf("the longest QP (all its attempts): %d iterations; the slowest: %.0f us\n",
+              most_iterations, 1e6 * slowest_qp_s);
   EXPECT_EQ(static_cast<std::uint64_t>(fallbacks),
             w.stage1_failed + w.stage2_failed + c.stage1_failed + c.stage2_failed);
   EXPECT_EQ(fallbacks, 0);
