@@ -26,6 +26,8 @@ namespace hyq::servo {
 namespace {
 
 constexpr std::size_t kEventStringCapacity = 128;
+// how long Stop waits before its final messages (see Telemetry::Impl::Run)
+constexpr std::chrono::milliseconds kStopSettle(50);
 
 bool Due(std::uint64_t cycle, std::uint32_t every) { return every != 0 && cycle % every == 0; }
 
@@ -90,12 +92,19 @@ struct Telemetry::Impl {
   hyq_lcm::lcmt_hyq_servo_timing timing{};
   hyq_lcm::lcmt_hyq_health health{};
   hyq_lcm::lcmt_hyq_event event{};
-  // UDP multicast is best effort and a busy subscriber (lcm-logger's receive ring) drops
-  // datagrams: each event is published again with the next two HEALTH messages (consumers
-  // deduplicate on cycle and reason); fixed capacity, the oldest repeats give way
+  // UDP multicast is best effort and a busy subscriber (lcm-logger's receive ring) loses
+  // datagrams in bursts: each event is published again kRepeatDelays after its first copy, in
+  // wall time (a burst is a stretch of wall time, not of cycles), and every copy still owed
+  // goes out once more at Stop (consumers deduplicate on cycle, reason and detail); fixed
+  // capacity, the oldest repeats give way
+  using Clock = std::chrono::steady_clock;
+  static constexpr std::array<std::chrono::milliseconds, 3> kRepeatDelays{
+      std::chrono::milliseconds(20), std::chrono::milliseconds(100),
+      std::chrono::milliseconds(500)};
   struct Repeat {
     SafetyEvent event;
-    int left = 0;
+    Clock::time_point first;
+    std::size_t next = 0;  // index into kRepeatDelays
   };
   static constexpr std::size_t kMaxRepeats = 64;
   std::array<Repeat, kMaxRepeats> repeats{};
@@ -109,6 +118,7 @@ struct Telemetry::Impl {
   void PublishHealth(const TelemetrySnapshot& s);
   TelemetryStats Stats() const noexcept;
   void PublishEvent(const SafetyEvent& e, bool repeat = true);
+  void PublishDueRepeats(bool all);
   template <class M>
   void Publish(const std::string& channel, const M& msg);
   void OnCommand(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
@@ -238,15 +248,20 @@ void Telemetry::Impl::Run() {
   const int fd = subscription != nullptr ? lcm->getFileno() : -1;
   while (!stop.load(std::memory_order_acquire)) {
     const bool busy = DrainOnce();
+    PublishDueRepeats(false);
     // wait for a command (or just the idle period) only when the queues were empty
     pollfd p{fd, POLLIN, 0};
     const int ready = poll(fd >= 0 ? &p : nullptr, fd >= 0 ? 1 : 0, busy ? 0 : config.idle_wait_ms);
     if (ready > 0 && (p.revents & POLLIN) != 0) HandleOne();
   }
-  // stop: publish what is still queued, then a final health message with the final counters
+  // stop: publish what is still queued; then, after kStopSettle (a subscriber that fell behind
+  // in the last burst drains its ring meanwhile), a final health message with the final counters
+  // and every event copy still owed
   while (DrainOnce()) {
   }
+  if (num_repeats > 0 || have_current) std::this_thread::sleep_for(kStopSettle);
   if (have_current) PublishHealth(current);
+  PublishDueRepeats(true);
 }
 
 // One lcm->handle(): a handler that throws (a decoder, an allocation) costs that message, never
@@ -313,10 +328,19 @@ void Telemetry::Impl::PublishHealth(const TelemetrySnapshot& s) {
   hyq_lcm::lcmt_hyq_health& m = health;
   ToLcm(s, Stats(), &m);
   Publish(ch_health, m);
+}
+
+void Telemetry::Impl::PublishDueRepeats(bool all) {
+  if (num_repeats == 0) return;
+  const Clock::time_point now = Clock::now();
   std::size_t kept = 0;
   for (std::size_t i = 0; i < num_repeats; ++i) {
-    PublishEvent(repeats[i].event, false);
-    if (--repeats[i].left > 0) repeats[kept++] = repeats[i];
+    Repeat& r = repeats[i];
+    if (all || now - r.first >= kRepeatDelays[r.next]) {
+      PublishEvent(r.event, false);
+      ++r.next;
+    }
+    if (!all && r.next < kRepeatDelays.size()) repeats[kept++] = r;
   }
   num_repeats = kept;
 }
@@ -327,7 +351,7 @@ void Telemetry::Impl::PublishEvent(const SafetyEvent& e, bool repeat) {
       std::move(repeats.begin() + 1, repeats.end(), repeats.begin());
       --num_repeats;
     }
-    repeats[num_repeats++] = {e, 2};
+    repeats[num_repeats++] = {e, Clock::now(), 0};
   }
   hyq_lcm::lcmt_hyq_event& m = event;
   ToLcm(e, &m);

@@ -280,13 +280,13 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
   }
   EXPECT_LE(count["HYQ_HEALTH"], kCycles / 100 + 1);  // cycles 0, 100, 200 and the final one
   EXPECT_GE(health_seen, 1);
-  // each event goes out once at once and again with the next two HEALTH messages: deduplicated,
-  // the ones that arrived are the pushed ones, in order
+  // each event goes out at once and again 20, 100 and 500 ms later (and the copies still owed
+  // at Stop): deduplicated, the ones that arrived are the pushed ones
   std::vector<std::uint64_t> unique_events;
   for (std::uint64_t c : events_seen)
     if (std::find(unique_events.begin(), unique_events.end(), c) == unique_events.end())
       unique_events.push_back(c);
-  // (the repeats ride on later HEALTH messages, so an event whose first copy was lost can arrive
+  // (the repeats come later, so an event whose first copy was lost can arrive
   // after a later one: the set is checked, not the order)
   std::sort(unique_events.begin(), unique_events.end());
   EXPECT_TRUE(std::includes(event_cycles.begin(), event_cycles.end(), unique_events.begin(),
@@ -360,7 +360,7 @@ TEST(TelemetryStall, PushNeverBlocksAndDropsArePublished) {
     while (stalled.load()) std::this_thread::sleep_for(1ms);  // the stuck network
     std::lock_guard<std::mutex> lock(mu);
     if (channel == "HYQ_HEALTH") health.push_back(Decode<hyq_lcm::lcmt_hyq_health>(data, size));
-    if (channel == "HYQ_EVENT") {  // once, plus repeats with later HEALTH messages: count unique
+    if (channel == "HYQ_EVENT") {  // once, plus repeats: count unique
       const auto e = Decode<hyq_lcm::lcmt_hyq_event>(data, size);
       if (unique_events.insert({e.cycle, e.detail}).second) ++events_published;
     }
@@ -421,6 +421,61 @@ TEST(TelemetryStall, PushNeverBlocksAndDropsArePublished) {
   EXPECT_EQ(health.back().snapshots_dropped, static_cast<std::int64_t>(during.snapshots_dropped));
   EXPECT_EQ(health.back().events_dropped, static_cast<std::int64_t>(during.events_dropped));
   EXPECT_EQ(health.back().snapshots_published, accepted);
+}
+
+// A subscriber that loses everything for a stretch of wall time (lcm-logger starved of CPU in a
+// lock-step run) still records each event: the repeats are spread over half a second, and Stop
+// sends every copy still owed once more after a settle.
+struct LossyLink {
+  std::atomic<bool> losing{true};
+  std::mutex mu;
+  std::vector<std::pair<std::int64_t, std::string>> events;  // (cycle, detail) received
+  Telemetry::PublishFn Fn() {
+    return [this](const std::string& channel, const void* data, std::size_t size) {
+      if (losing.load()) return true;  // sent, and lost on the way
+      if (channel == "HYQ_EVENT") {
+        const auto e = Decode<hyq_lcm::lcmt_hyq_event>(data, size);
+        std::lock_guard<std::mutex> lock(mu);
+        events.emplace_back(e.cycle, e.detail);
+      }
+      return true;
+    };
+  }
+  int Count(std::int64_t cycle) {
+    std::lock_guard<std::mutex> lock(mu);
+    return static_cast<int>(std::count_if(events.begin(), events.end(),
+                                          [&](const auto& e) { return e.first == cycle; }));
+  }
+};
+
+TEST(TelemetryRepeats, AnEventOutlivesAHundredAndFiftyMillisecondsOfLoss) {
+  LossyLink link;
+  TelemetryConfig config;
+  config.lcm_url = "memq://";
+  Telemetry telemetry(config, {}, link.Fn());
+  telemetry.Start();
+  ASSERT_TRUE(telemetry.PushEvent(MakeEvent(11, EventReason::kDeviceFault, "node 3 left OP")));
+  std::this_thread::sleep_for(150ms);  // the first copy and the 20 ms and 100 ms repeats: lost
+  link.losing.store(false);
+  EXPECT_EQ(link.Count(11), 0);
+  for (int i = 0; i < 200 && link.Count(11) == 0; ++i) std::this_thread::sleep_for(5ms);
+  EXPECT_GE(link.Count(11), 1) << "the 500 ms repeat";
+  telemetry.Stop();
+  EXPECT_LE(link.Count(11), 4) << "one copy and three repeats at most";
+}
+
+TEST(TelemetryRepeats, StopSendsTheCopiesStillOwed) {
+  LossyLink link;
+  TelemetryConfig config;
+  config.lcm_url = "memq://";
+  Telemetry telemetry(config, {}, link.Fn());
+  telemetry.Start();
+  ASSERT_TRUE(telemetry.Push(MakeSnapshot(1)));
+  ASSERT_TRUE(telemetry.PushEvent(MakeEvent(12, EventReason::kInputMissing, "held 4 cycles")));
+  std::this_thread::sleep_for(5ms);  // the first copy is lost; the daemon stops at once
+  link.losing.store(false);
+  telemetry.Stop();
+  EXPECT_GE(link.Count(12), 1);
 }
 
 // ---------------------------------------------------------------------------------------------
