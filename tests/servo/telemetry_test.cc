@@ -494,8 +494,10 @@ class CommandChannel : public ::testing::Test {
     ASSERT_TRUE(sender_->good());
     sender_->subscribe("HYQ_EVENT", &CommandChannel::OnEvent, this);
   }
+  // deduplicated on (cycle, reason, detail) as docs/telemetry.md tells consumers: the daemon
+  // repeats every event 20, 100 and 500 ms after its first copy
   void OnEvent(const lcm::ReceiveBuffer*, const std::string&, const hyq_lcm::lcmt_hyq_event* e) {
-    events_.push_back(*e);
+    if (seen_.insert({e->cycle, e->reason + '\n' + e->detail}).second) events_.push_back(*e);
   }
   void TearDown() override {
     if (!key_dir_.empty()) std::filesystem::remove_all(key_dir_);
@@ -551,6 +553,7 @@ class CommandChannel : public ::testing::Test {
   CommandKey key_;
   std::unique_ptr<lcm::LCM> sender_;
   std::vector<hyq_lcm::lcmt_hyq_event> events_;
+  std::set<std::pair<std::int64_t, std::string>> seen_;
 };
 
 using K = hyq_lcm::lcmt_hyq_command;
