@@ -34,16 +34,42 @@ void ContactFreeAnswer(const dynamics::CycleDynamics& dyn, const IdInput& in,
 // detour that a cold start avoids (on the hard problems of two_stage_id_test, most warm
 // iteration limits solve cold in under 40 iterations). The warm attempt gets at most
 // kWarmIterations (along the recorded trot a warm ID needs at most 36 for both stages); past
-// that the QP is solved again cold, with the whole budget, within the same deadline, and then
-// once more by the last attempt below before a fallback. (A warm Stage II that spent all 500
-// iterations left its cold retry too little of the daemon's time budget: one deadline fallback
-// in 60 s of HIL trot.)
+// that the QP is solved again cold, with at most kColdIterations, and then once more by the last
+// attempt below before a fallback.
 constexpr int kWarmIterations = 100;
+// A QP that the cold attempt does not solve in 100 iterations is one of the degenerate ones
+// (on generator seeds 1-60 the cold attempt at 100 leaves only those, and the last attempt
+// solves each in ~16 iterations); with the full 500 it went on for 0.3-3.6 ms (2-14 proximal
+// outer iterations at ε's floor), past the daemon's 400 us budget, before the last attempt.
+constexpr int kColdIterations = 100;
 // The last attempt, cold with a large proximal weight (relative to max H_ii): on the degenerate
 // Stage II QPs that still reach the budget from 1e-5 (ε reduced to its floor, the primal
 // residual stuck at 1e-6), 1e-2 solves them in one outer iteration of ~8 active-set changes.
 // Only a last attempt: as a start it would stop the flat directions early (docs/qp.md).
 constexpr double kLastResortProximalWeight = 1e-2;
+// Under a time budget the attempts share it: the warm one may use 40 % of what is left when it
+// starts, the cold one 60 % of what is left after that, so at least 24 % is kept for the last
+// attempt (~15 us on the degenerate QPs, 96 us of the daemon's 400).
+constexpr double kWarmShareOfTime = 0.4;
+constexpr double kColdShareOfTime = 0.6;
+
+// One attempt with at most max_iterations and, under a deadline, at most `share` of the time
+// left. True when the attempt stopped on its own limits and the next one should run.
+bool Attempt(qp::Solver& solver, const qp::Problem& p, qp::Budget budget, int max_iterations,
+             double share, qp::Solution* s, qp::Status* st) noexcept {
+  budget.max_iterations = std::min(budget.max_iterations, max_iterations);
+  const auto final_deadline = budget.deadline;
+  if (final_deadline) {
+    const auto now = std::chrono::steady_clock::now();
+    if (*final_deadline > now)
+      budget.deadline = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                  (*final_deadline - now) * share);
+  }
+  *st = solver.Solve(p, budget, s);
+  if (*st == qp::Status::kIterationLimit) return true;
+  return *st == qp::Status::kDeadline && final_deadline &&
+         std::chrono::steady_clock::now() < *final_deadline;
+}
 
 qp::Settings IdQpSettings(double proximal_weight) {
   qp::Settings q;
@@ -57,19 +83,17 @@ qp::Status SolveWithRetries(qp::Solver& solver, qp::Solver& last_resort, const q
   qp::Status st;
   int used = 0;
   double spent_s = 0.0;
-  if (budget.warm_start) {
-    qp::Budget warm = budget;
-    warm.max_iterations = std::min(budget.max_iterations, kWarmIterations);
-    st = solver.Solve(p, warm, s);
-    if (st != qp::Status::kIterationLimit) return st;
-    used = s->iterations;
-    spent_s = s->solve_time_s;
-    budget.warm_start = false;
-  }
-  st = solver.Solve(p, budget, s);
-  if (st == qp::Status::kIterationLimit) {
+  const auto account = [&] {
     used += s->iterations;
     spent_s += s->solve_time_s;
+  };
+  if (budget.warm_start) {
+    if (!Attempt(solver, p, budget, kWarmIterations, kWarmShareOfTime, s, &st)) return st;
+    account();
+    budget.warm_start = false;
+  }
+  if (Attempt(solver, p, budget, kColdIterations, kColdShareOfTime, s, &st)) {
+    account();
     st = last_resort.Solve(p, budget, s);
   }
   s->iterations += used;
