@@ -66,6 +66,27 @@ decode_log() {
   done
 }
 
+# True when the daemon left ACTIVE for its deadline policy with cycles far past anything the
+# controller can take itself (its QP stops at its 400 us time budget): the servo thread was not
+# running, a stall of the machine (seen on the 2-core VMs: 5-13 ms), which says nothing about
+# the run's subject. Prints the evidence.
+stalled_by_the_machine() {
+  "$py" - "$out" <<'PY'
+import json, os, re, sys
+p = os.path.join(sys.argv[1], "servod.json")
+if not os.path.exists(p): sys.exit(1)
+s = json.load(open(p))
+left = [e for e in s["event_log"] if e["from"] == "active"]
+if not left or left[0]["reason"] != "deadline_miss": sys.exit(1)
+last = re.search(r"last ([0-9.]+) us", left[0]["detail"])
+stalled = s["qp_time_max_us"] > 2000 or (last is not None and float(last.group(1)) > 2000)
+print(f"hil_e2e_test: the daemon stopped for its deadline policy ({left[0]['detail']}); "
+      f"QP time max {s['qp_time_max_us']:.0f} us under a 400 us budget: "
+      + ("the machine stalled the servo thread" if stalled else "not a stall of the machine"))
+sys.exit(0 if stalled else 1)
+PY
+}
+
 case "$mode" in
   trot)
     # DURATION s (default 5) of lock-step trot on mu = 0.1 with the two-stage ID; no QP of it
@@ -73,6 +94,11 @@ case "$mode" in
     dur=${1:-5}
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration "$dur" --quiet
     rc=$?
+    if ((rc != 0)) && stalled_by_the_machine; then
+      echo "hil_e2e_test: running once more (a second deadline stop fails the test)"
+      "$here/scripts/hil.sh" --build "$build" --out "$out" --duration "$dur" --quiet
+      rc=$?
+    fi
     cat "$out/servod.log" | tail -0
     [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "hil.sh exit $rc"; }
     check_json "s['final_mode'] == 'stopped' and s['active_s'] >= $dur - 0.01"
@@ -158,7 +184,14 @@ PY
     ;;
   fault)
     spec=$1 reason=$2
-    "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 5 --quiet --fault "2.0:$spec"
+    # the deadline policy relaxed: this run checks the reaction to the injected fault, and a
+    # machine stall before it (seen: 5 cycles of 1.3-7.4 ms of thread CPU time in a row, in the
+    # 0.2 s before the fault, on a loaded 2-core VM) would stop the daemon for its timing first
+    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
+        "$here/config/hyq_servo_sim.yaml" > "$out/fault_servo.yaml"
+    printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$out/fault_servo.yaml"
+    "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 5 --quiet --fault "2.0:$spec" \
+      --servod-arg --config --servod-arg "$out/fault_servo.yaml"
     rc=$?
     [[ $rc -eq 3 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "expected the daemon to stop in FAULT (exit 3), got $rc"; }
     [[ -s "$out/sim.json" ]] || fail "hyq-sim wrote no summary (did it crash?)"
@@ -319,6 +352,11 @@ EOS
     # (hil.sh empties its output folder: the command's own output goes beside it)
     (cd "$here" && HYQ_PRESET="${HYQ_PRESET:-ci}" scripts/run.sh --duration 1 --out "$out" --quiet) > "$out.run.log" 2>&1
     rc=$?
+    if ((rc != 0)) && stalled_by_the_machine; then
+      echo "hil_e2e_test: running once more (a second deadline stop fails the test)"
+      (cd "$here" && HYQ_PRESET="${HYQ_PRESET:-ci}" scripts/run.sh --duration 1 --out "$out" --quiet) > "$out.run.log" 2>&1
+      rc=$?
+    fi
     cat "$out.run.log"
     [[ $rc -eq 0 ]] || fail "scripts/run.sh exit $rc"
     grep -q "did not fall while active" "$out.run.log" || fail "no summary line about the robot"
