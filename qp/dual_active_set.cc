@@ -315,7 +315,7 @@ bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status)
     *status = InnerStatus::kIterationLimit;
     return true;
   }
-  if (limits.has_deadline && std::chrono::steady_clock::now() >= limits.deadline) {
+  if (limits.has_deadline && limits.deadline.Passed()) {
     *status = InnerStatus::kDeadline;
     return true;
   }

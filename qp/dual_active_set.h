@@ -19,8 +19,8 @@
 // Saunders, Math. Comp. 28, 1974, method C1].
 #pragma once
 
-#include <chrono>
 
+#include "qp/deadline.h"
 #include "qp/workspace.h"
 
 namespace hyq::qp::internal {
@@ -30,7 +30,7 @@ enum class InnerStatus { kOptimal, kInfeasible, kIterationLimit, kDeadline };
 struct InnerLimits {
   int max_iterations = 0;
   bool has_deadline = false;
-  std::chrono::steady_clock::time_point deadline{};
+  Deadline deadline;
   double primal_tolerance = 0.0;
   double dependence_tolerance = 0.0;
 };

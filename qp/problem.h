@@ -14,12 +14,13 @@
 #pragma once
 
 #include <array>
-#include <chrono>
 #include <cstdint>
 #include <limits>
 #include <optional>
 
 #include <Eigen/Core>
+
+#include "qp/deadline.h"
 
 namespace hyq::qp {
 
@@ -74,8 +75,9 @@ enum class Active : std::int8_t { kLower = -1, kInactive = 0, kUpper = 1, kEqual
 /// What a solve may use.
 struct Budget {
   int max_iterations = 1000;  ///< active-set changes plus proximal (outer) iterations
-  /// Absolute steady-clock time after which the solve stops with Status::kDeadline.
-  std::optional<std::chrono::steady_clock::time_point> deadline;
+  /// After this (on its clock: wall or the thread's CPU time) the solve stops with
+  /// Status::kDeadline.
+  std::optional<Deadline> deadline;
   /// Start from Solution's active set and multipliers (and, for a singular H, its x) as left by
   /// the previous solve of a problem with the same n and m. Ignored on a size mismatch. When H
   /// and A are bit-for-bit those of this Solver's previous solve, the solver instead continues

@@ -378,7 +378,7 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
       status = Status::kIterationLimit;
       break;
     }
-    if (limits.has_deadline && Clock::now() >= limits.deadline) {
+    if (limits.has_deadline && limits.deadline.Passed()) {
       status = Status::kDeadline;
       break;
     }

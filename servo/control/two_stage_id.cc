@@ -59,16 +59,10 @@ bool Attempt(qp::Solver& solver, const qp::Problem& p, qp::Budget budget, int ma
              double share, qp::Solution* s, qp::Status* st) noexcept {
   budget.max_iterations = std::min(budget.max_iterations, max_iterations);
   const auto final_deadline = budget.deadline;
-  if (final_deadline) {
-    const auto now = std::chrono::steady_clock::now();
-    if (*final_deadline > now)
-      budget.deadline = now + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                  (*final_deadline - now) * share);
-  }
+  if (final_deadline) budget.deadline = final_deadline->Share(share);
   *st = solver.Solve(p, budget, s);
   if (*st == qp::Status::kIterationLimit) return true;
-  return *st == qp::Status::kDeadline && final_deadline &&
-         std::chrono::steady_clock::now() < *final_deadline;
+  return *st == qp::Status::kDeadline && final_deadline && !final_deadline->Passed();
 }
 
 qp::Settings IdQpSettings(double proximal_weight) {
@@ -164,8 +158,7 @@ qp::Budget TwoStageId::MakeBudget(bool warm, int max_iterations) const noexcept 
   b.max_iterations = max_iterations;
   b.warm_start = warm;
   if (settings_.time_budget)
-    b.deadline = std::chrono::steady_clock::now() +
-                 std::chrono::duration_cast<std::chrono::steady_clock::duration>(*settings_.time_budget);
+    b.deadline = qp::Deadline::In(*settings_.time_budget, settings_.time_budget_clock);
   return b;
 }
 

@@ -87,8 +87,11 @@ struct TwoStageSettings {
   bool stage2 = true;           // false: the paper's "Stage I only" (Fig. 1)
   int max_iterations = 500;     // Stage I QP (degenerate near-frictionless cases need ~150)
   int stage2_max_iterations = 500;
-  /// Wall-clock budget per QP (none by default; the servo loop sets one).
+  /// Time budget per QP (none by default; config controller.two_stage.time_budget_us), on
+  /// time_budget_clock: wall time, or the thread's CPU time, which the servo loop sets under the
+  /// lock-step clock (the plant waits; qp/deadline.h).
   std::optional<std::chrono::nanoseconds> time_budget;
+  qp::DeadlineClock time_budget_clock = qp::DeadlineClock::kMonotonic;
   double null_space_tolerance = 1e-9;  // relative, rank decision for the internal forces
   /// Stage II stays in Stage I's optimal set (9) by keeping gᵀP w = 0; ‖Pᵀg‖∞ at or below this
   /// times ‖|P|ᵀ|g|‖∞ (the size of the rounding in Pᵀg) counts as zero and adds no row. 1 (or

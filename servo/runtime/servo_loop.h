@@ -39,8 +39,8 @@ struct LoopStats {
   std::uint64_t telemetry_drops = 0, event_drops = 0;
   std::uint64_t commands_applied = 0, commands_rejected = 0;
   std::uint64_t controller_fallbacks = 0;
-  /// of those, the ones whose QP ran out of its wall-clock budget (controller time_budget_us)
-  /// rather than its iterations (a preempted servo thread, or retries outlasting the budget)
+  /// of those, the ones whose QP ran out of its time budget (controller time_budget_us; wall
+  /// time, or the thread's CPU time under the lock-step clock) rather than its iterations
   std::uint64_t controller_fallbacks_deadline = 0;
   LatencyHistogram wakeup;                    // wake-up latency
   LatencyHistogram cycle;                     // read start .. write end

@@ -66,25 +66,39 @@ decode_log() {
   done
 }
 
-# True when the daemon left ACTIVE for its deadline policy with cycles far past anything the
-# controller can take itself (its QP stops at its 400 us time budget): the servo thread was not
-# running, a stall of the machine (seen on the 2-core VMs: 5-13 ms), which says nothing about
-# the run's subject. Prints the evidence.
+# stalled_by_the_machine RC DURATION: true when the run broke the trot's timing checks (stopped
+# for its deadline policy, or more than 1 % of the cycles over the deadline) with a cycle or a QP
+# over 2 ms of the servo thread's CPU time, far past anything the controller takes itself (its
+# QP stops at its 400 us budget): the machine stalled the thread (seen on the shared 2-core VMs,
+# 5-15 ms, in bursts while the host steals time), which says nothing about the run's subject.
+# Prints the evidence. A run is repeated at most twice for it; the third is judged as it is.
 stalled_by_the_machine() {
-  "$py" - "$out" <<'PY'
+  "$py" - "$out" "$1" "$2" <<'PY'
 import json, os, re, sys
-p = os.path.join(sys.argv[1], "servod.json")
+out, rc, dur = sys.argv[1], int(sys.argv[2]), float(sys.argv[3])
+p = os.path.join(out, "servod.json")
 if not os.path.exists(p): sys.exit(1)
 s = json.load(open(p))
 left = [e for e in s["event_log"] if e["from"] == "active"]
-if not left or left[0]["reason"] != "deadline_miss": sys.exit(1)
-last = re.search(r"last ([0-9.]+) us", left[0]["detail"])
-stalled = s["qp_time_max_us"] > 2000 or (last is not None and float(last.group(1)) > 2000)
-print(f"hil_e2e_test: the daemon stopped for its deadline policy ({left[0]['detail']}); "
-      f"QP time max {s['qp_time_max_us']:.0f} us under a 400 us budget: "
-      + ("the machine stalled the servo thread" if stalled else "not a stall of the machine"))
-sys.exit(0 if stalled else 1)
+stopped = rc != 0 and left and left[0]["reason"] == "deadline_miss"
+too_many = s["deadline_misses"] > 10 * dur or s["max_consecutive_misses"] >= 5
+if not (stopped or too_many): sys.exit(1)
+last = re.search(r"last ([0-9.]+) us", left[0]["detail"]) if stopped else None
+worst = max(s["cycle_time"]["max_us"], s["qp_time_max_us"], float(last.group(1)) if last else 0.0)
+print(f"hil_e2e_test: timing broken ({'stopped: ' + left[0]['detail'] if stopped else 'no stop'}; "
+      f"{s['deadline_misses']} misses, at most {s['max_consecutive_misses']} in a row), longest cycle or QP "
+      f"{worst:.0f} us: " + ("the machine stalled the servo thread" if worst > 2000 else "not a stall of the machine"))
+sys.exit(0 if worst > 2000 else 1)
 PY
+}
+
+# The shipped simulation configuration with the deadline policy relaxed (no stop for timing),
+# for the runs that check something else; prints its path.
+relaxed_deadline_config() {
+  sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
+      "$here/config/hyq_servo_sim.yaml" > "$out/relaxed_servo.yaml"
+  printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$out/relaxed_servo.yaml"
+  echo "$out/relaxed_servo.yaml"
 }
 
 case "$mode" in
@@ -92,13 +106,12 @@ case "$mode" in
     # DURATION s (default 5) of lock-step trot on mu = 0.1 with the two-stage ID; no QP of it
     # may fall back (issue 16: a fallback is Stage I's torque or the contact-free ID)
     dur=${1:-5}
-    "$here/scripts/hil.sh" --build "$build" --out "$out" --duration "$dur" --quiet
-    rc=$?
-    if ((rc != 0)) && stalled_by_the_machine; then
-      echo "hil_e2e_test: running once more (a second deadline stop fails the test)"
+    for attempt in 1 2 3; do
       "$here/scripts/hil.sh" --build "$build" --out "$out" --duration "$dur" --quiet
       rc=$?
-    fi
+      ((attempt < 3)) && stalled_by_the_machine "$rc" "$dur" || break
+      echo "hil_e2e_test: running again (attempt $((attempt + 1)) of 3, the last judged as it is)"
+    done
     cat "$out/servod.log" | tail -0
     [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "hil.sh exit $rc"; }
     check_json "s['final_mode'] == 'stopped' and s['active_s'] >= $dur - 0.01"
@@ -124,13 +137,12 @@ for r in csv.DictReader(open(sys.argv[1])):
               f"({r['stage1_iterations (count)']} it, {float(r['stage1_solve_us (us)']):.0f} us), Stage II "
               f"{names[int(r['stage2_status (enum)'])]} ({r['stage2_iterations (count)']} it, {float(r['stage2_solve_us (us)']):.0f} us)")
 PY
-    # issue 16: none from a QP that ran out of iterations (before: 12-20 per 60 s run). One that
-    # ran out of its 400 us time budget (config/hyq_servo_sim.yaml) is counted apart: a preempted
-    # servo thread, or a QP whose later attempts (SolveWithRetries) took longer than the budget
-    # (on the generator the slowest such QP took 0.3-3.6 ms); allowed a few times (0-2 per 60 s
-    # seen here), issue 16 still open on it (docs/inverse_dynamics.md, "Fallbacks")
-    check_json 's["controller_fallbacks"] - s["controller_fallbacks_deadline"] == 0'
-    check_json 's["controller_fallbacks_deadline"] <= 5'
+    # issue 16: none, neither from a QP that ran out of iterations (before: 12-20 per 60 s run)
+    # nor from one that ran out of its 400 us time budget (config/hyq_servo_sim.yaml), which in
+    # lock-step is the servo thread's CPU time (qp/deadline.h; on the wall clock a preempted
+    # thread fell back 0-2 times per 60 s here)
+    check_json 's["controller_fallbacks_deadline"] == 0'
+    check_json 's["controller_fallbacks"] == 0'
     ;;
   realtime)
     # issue 17: the real-time clock with the SHIPPED configuration (config/hyq_servo_sim.yaml,
@@ -187,11 +199,8 @@ PY
     # the deadline policy relaxed: this run checks the reaction to the injected fault, and a
     # machine stall before it (seen: 5 cycles of 1.3-7.4 ms of thread CPU time in a row, in the
     # 0.2 s before the fault, on a loaded 2-core VM) would stop the daemon for its timing first
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
-        "$here/config/hyq_servo_sim.yaml" > "$out/fault_servo.yaml"
-    printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$out/fault_servo.yaml"
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 5 --quiet --fault "2.0:$spec" \
-      --servod-arg --config --servod-arg "$out/fault_servo.yaml"
+      --servod-arg --config --servod-arg "$(relaxed_deadline_config)"
     rc=$?
     [[ $rc -eq 3 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "expected the daemon to stop in FAULT (exit 3), got $rc"; }
     [[ -s "$out/sim.json" ]] || fail "hyq-sim wrote no summary (did it crash?)"
@@ -210,7 +219,9 @@ PY
     grep -q "$reason" "$out/csv/HYQ_EVENT.csv" || fail "the event $reason is not in the LCM log"
     ;;
   sigterm)
-    "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 0 --sigterm-after 2 --quiet
+    # the deadline policy relaxed, as for the faults: this run checks the stop on SIGTERM
+    "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 0 --sigterm-after 2 --quiet \
+      --servod-arg --config --servod-arg "$(relaxed_deadline_config)"
     rc=$?
     [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log"; fail "hil.sh exit $rc after SIGTERM"; }
     grep -q "Terminated: controlled stop" "$out/servod.log" || true
@@ -226,6 +237,8 @@ PY
     "$cmd" --generate-key "$out/other.key" >/dev/null || fail "hyq-command --generate-key"
     sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
         -e "s|^  auto_enable: .*|  auto_enable: false|" "$here/config/hyq_servo_sim.yaml" > "$out/servo.yaml"
+    # the deadline policy relaxed, as for the faults: this run checks the command channel
+    printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$out/servo.yaml"
     cat > "$out/commands.sh" <<EOS
 #!/bin/bash
 set -u
@@ -350,13 +363,12 @@ EOS
     ;;
   mainjob)
     # (hil.sh empties its output folder: the command's own output goes beside it)
-    (cd "$here" && HYQ_PRESET="${HYQ_PRESET:-ci}" scripts/run.sh --duration 1 --out "$out" --quiet) > "$out.run.log" 2>&1
-    rc=$?
-    if ((rc != 0)) && stalled_by_the_machine; then
-      echo "hil_e2e_test: running once more (a second deadline stop fails the test)"
+    for attempt in 1 2 3; do
       (cd "$here" && HYQ_PRESET="${HYQ_PRESET:-ci}" scripts/run.sh --duration 1 --out "$out" --quiet) > "$out.run.log" 2>&1
       rc=$?
-    fi
+      ((rc != 0 && attempt < 3)) && stalled_by_the_machine "$rc" 1 || break
+      echo "hil_e2e_test: running again (attempt $((attempt + 1)) of 3, the last judged as it is)"
+    done
     cat "$out.run.log"
     [[ $rc -eq 0 ]] || fail "scripts/run.sh exit $rc"
     grep -q "did not fall while active" "$out.run.log" || fail "no summary line about the robot"

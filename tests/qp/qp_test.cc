@@ -5,6 +5,7 @@
 #include <cmath>
 #include <random>
 #include <string>
+#include <thread>
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -380,7 +381,7 @@ TEST(QpAllocation, NoHeapInColdOrWarmSolve) {
   Solution s;
   Budget warm;
   warm.warm_start = true;
-  warm.deadline = std::chrono::steady_clock::now() + std::chrono::hours(1);
+  warm.deadline = Deadline::In(std::chrono::hours(1));
   Budget tight;
   tight.max_iterations = 3;
   std::size_t allocations = 0;
@@ -497,7 +498,7 @@ TEST(QpStatus, IterationLimitAndDeadlineReturnTheLastIterate) {
   EXPECT_TRUE(s.x.allFinite());
   EXPECT_GT(s.kkt.primal, 0.0);  // not yet feasible, and it says so
   b.max_iterations = 1000;
-  b.deadline = std::chrono::steady_clock::now();
+  b.deadline = Deadline::At(std::chrono::steady_clock::now());
   EXPECT_EQ(solver.Solve(t.problem, b, &s), Status::kDeadline);
   EXPECT_TRUE(s.x.allFinite());
   // the full solve from the deadline's partial state still ends at the planted optimum
@@ -505,6 +506,49 @@ TEST(QpStatus, IterationLimitAndDeadlineReturnTheLastIterate) {
   b.warm_start = true;
   (void)solver.Solve(t.problem, b, &s);
   ExpectPlanted(t, s, 1e-10, "after deadline");
+}
+
+// Lock-step budgets (qp/deadline.h): time the thread is not running does not count on its CPU
+// clock, and the wall-clock bound is only a bound.
+TEST(QpDeadline, ThreadCpuTimeIgnoresTimeAsleepAndCountsWork) {
+  using namespace std::chrono_literals;
+  const Deadline wall = Deadline::In(2ms);
+  const Deadline cpu = Deadline::In(2ms, DeadlineClock::kThreadCpu);
+  std::this_thread::sleep_for(5ms);
+  EXPECT_TRUE(wall.Passed());
+  EXPECT_FALSE(cpu.Passed()) << "5 ms asleep used up a 2 ms CPU-time budget";
+  EXPECT_GT(cpu.Remaining(), 1ms);
+  // a solve under it, after the sleep, is not stopped by the wall time
+  std::mt19937_64 rng(11);
+  Solver solver;
+  const Planted t = MakePlanted({.n = 40, .m = 80, .condition = 1e2, .active_bounds = 10,
+                                 .active_constraints = 25}, &rng);
+  Solution s;
+  Budget b;
+  b.deadline = cpu;
+  EXPECT_EQ(solver.Solve(t.problem, b, &s), Status::kOptimal);
+  b.deadline = wall;
+  EXPECT_EQ(solver.Solve(t.problem, b, &s), Status::kDeadline);
+  // work does count: spinning ends it
+  const auto give_up = std::chrono::steady_clock::now() + 2s;
+  volatile double sink = 0.0;
+  while (!cpu.Passed() && std::chrono::steady_clock::now() < give_up) sink = sink + 1.0;
+  EXPECT_TRUE(cpu.Passed());
+  EXPECT_EQ(cpu.Remaining(), 0ns);
+}
+
+TEST(QpDeadline, ShareKeepsTheRestForLater) {
+  using namespace std::chrono_literals;
+  for (const DeadlineClock clock : {DeadlineClock::kMonotonic, DeadlineClock::kThreadCpu}) {
+    SCOPED_TRACE(ToString(clock));
+    const Deadline d = Deadline::In(100ms, clock);
+    const Deadline part = d.Share(0.25);
+    EXPECT_EQ(part.clock(), clock);
+    EXPECT_LE(part.Remaining(), 25ms + 1ms);
+    EXPECT_GT(part.Remaining(), 20ms);
+    EXPECT_GT(d.Remaining(), 95ms);
+    EXPECT_FALSE(d.Share(0.0).Remaining() > 1ms);
+  }
 }
 
 // A sweep over mixed random problems: planted (cond 1 … 1e6, rank-deficient, equalities, n up
