@@ -92,6 +92,9 @@ struct Settings {
   double dependence_tolerance = 1e-13; ///< relative pivot below which an entering row is dependent
   /// Proximal weight for a singular H, relative to max H_ii (absolute for an LP, H = 0).
   double proximal_weight = 1e-7;
+  /// H is known to be singular: start with the proximal weight at once instead of first trying
+  /// ε = 0 (a factorisation that is bound to fail, often only at its last test).
+  bool singular_hessian = false;
   int max_outer_iterations = 400;
 };
 

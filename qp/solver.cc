@@ -272,7 +272,7 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
     // H + εI = L Lᵀ with ε = 0 when H is safely positive definite
     ws.factor_valid = false;
     ws.eps = 0.0;
-    if (!internal::FactorHessian(&ws, 0.0, kPositiveDefiniteFloor)) {
+    if (settings_.singular_hessian || !internal::FactorHessian(&ws, 0.0, kPositiveDefiniteFloor)) {
       ws.eps = settings_.proximal_weight * (ws.hmax > 0.0 ? ws.hmax : 1.0);
       if (!internal::FactorHessian(&ws, ws.eps, 0.0)) return finish(Status::kBadInput);
     }
