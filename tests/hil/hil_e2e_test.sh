@@ -67,11 +67,13 @@ decode_log() {
 }
 
 # stalled_by_the_machine RC DURATION: true when the run broke the trot's timing checks (stopped
-# for its deadline policy, or more than 1 % of the cycles over the deadline) with a cycle or a QP
-# over 2 ms of the servo thread's CPU time, far past anything the controller takes itself (its
-# QP stops at its 400 us budget): the machine stalled the thread (seen on the shared 2-core VMs,
-# 5-15 ms, in bursts while the host steals time), which says nothing about the run's subject.
-# Prints the evidence. A run is repeated at most twice for it; the third is judged as it is.
+# for its deadline policy, more than 1 % of the cycles over the deadline, or a fallback on the
+# QP time budget) with a cycle or a QP over 2 ms, far past anything the controller takes itself
+# (its QP stops at its 400 us budget): the machine stalled the thread (seen on the shared 2-core
+# VMs, 5-15 ms, in bursts while the host steals time), which says nothing about the run's
+# subject. Prints the evidence. A run is repeated at most twice for it; the third is judged as
+# it is. (The summary has no per-QP times: a genuine budget fallback in a run that also stalled
+# elsewhere is repeated too, and must then not recur in the repeats.)
 stalled_by_the_machine() {
   "$py" - "$out" "$1" "$2" <<'PY'
 import json, os, re, sys
@@ -82,11 +84,16 @@ s = json.load(open(p))
 left = [e for e in s["event_log"] if e["from"] == "active"]
 stopped = rc != 0 and left and left[0]["reason"] == "deadline_miss"
 too_many = s["deadline_misses"] > 10 * dur or s["max_consecutive_misses"] >= 5
-if not (stopped or too_many): sys.exit(1)
+# a QP stopped by its 400 us budget (lock-step: the thread's CPU time) ends within an iteration
+# of it; one that fell back after more than 2 ms of wall time had a stall charged to the thread
+# as CPU time (seen once here beside a CPU hog: 3.4 ms)
+budget_fallback = s["controller_fallbacks_deadline"] > 0
+if not (stopped or too_many or budget_fallback): sys.exit(1)
 last = re.search(r"last ([0-9.]+) us", left[0]["detail"]) if stopped else None
 worst = max(s["cycle_time"]["max_us"], s["qp_time_max_us"], float(last.group(1)) if last else 0.0)
 print(f"hil_e2e_test: timing broken ({'stopped: ' + left[0]['detail'] if stopped else 'no stop'}; "
-      f"{s['deadline_misses']} misses, at most {s['max_consecutive_misses']} in a row), longest cycle or QP "
+      f"{s['deadline_misses']} misses, at most {s['max_consecutive_misses']} in a row; "
+      f"{s['controller_fallbacks_deadline']} fallbacks on the QP time budget), longest cycle or QP "
       f"{worst:.0f} us: " + ("the machine stalled the servo thread" if worst > 2000 else "not a stall of the machine"))
 sys.exit(0 if worst > 2000 else 1)
 PY
