@@ -116,7 +116,7 @@ t_stop = sim.get("released_at_s", 0.0) + s["active_s"]
 fell = bool(sim.get("fell")) and sim.get("fell_at_s", 0.0) < t_stop - 1e-9
 print(f"HIL run ({s['controller']}, {s['clock']}): {s['active_s']:.2f} s active, final mode {s['final_mode']}, daemon exit {rc}")
 print(f"  tracking error   mean {s['tracking_error_mean_rad']:.4f} rad, max {s['tracking_error_max_rad']:.4f} rad")
-print(f"  QP solve time    mean {s['qp_time_mean_us']:.1f} us, max {s['qp_time_max_us']:.1f} us; fallbacks {s['controller_fallbacks']} ({s.get('controller_fallbacks_deadline', 0)} on the time budget)")
+print(f"  QP solve time    mean {s['qp_time_mean_us']:.1f} us, max {s['qp_time_max_us']:.1f} us; fallbacks {s['controller_fallbacks']} ({s.get('controller_fallbacks_deadline', 0)} on the time budget, {s.get('controller_fallbacks_deadline_stalled', 0)} of them a stalled thread)")
 c, w = s["cycle_time"], s["wakeup_latency"]
 print(f"  cycle time       p50 {c['p50_us']:.0f} us, p99 {c['p99_us']:.0f} us, p99.9 {c['p999_us']:.0f} us, max {c['max_us']:.0f} us")
 if s["clock"] == "realtime":

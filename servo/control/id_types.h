@@ -73,6 +73,18 @@ inline bool FellBackOnDeadline(const IdOutput& out) noexcept {
   return failed.status == qp::Status::kDeadline;
 }
 
+/// For a fallback on the deadline: whether the thread, not the QP, used up the budget. The QP
+/// checks its deadline every iteration (an iteration of the ID's QPs takes 1-20 us), so on its
+/// own it ends within an iteration past the budget; its solve time (all attempts, wall clock)
+/// under half the budget means the budget went before or between the attempts, and over 1.25×
+/// means the thread was stalled inside (a preemption, or on a VM the vCPU descheduled, which the
+/// guest charges to the thread's CPU time).
+inline bool DeadlineSpentByAStall(const IdOutput& out, double budget_s) noexcept {
+  if (!FellBackOnDeadline(out)) return false;
+  const StageReport& failed = out.fallback == Fallback::kStage1Torque ? out.stage2 : out.stage1;
+  return failed.solve_time_s < 0.5 * budget_s || failed.solve_time_s > 1.25 * budget_s;
+}
+
 /// Counts of each fallback taken, for telemetry.
 struct FallbackCounters {
   std::uint64_t calls = 0;

@@ -1,6 +1,7 @@
 #include "servo/runtime/servo_loop.h"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 
 #include "hal/clock.h"
@@ -181,7 +182,12 @@ void ServoLoop::RunController() noexcept {
   }
   id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, env_, dt_, &out_);
   if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
-  if (FellBackOnDeadline(out_)) ++stats_.controller_fallbacks_deadline;
+  if (FellBackOnDeadline(out_)) {
+    ++stats_.controller_fallbacks_deadline;
+    const auto& budget = config_.controller.id.time_budget;
+    if (budget && DeadlineSpentByAStall(out_, std::chrono::duration<double>(*budget).count()))
+      ++stats_.controller_fallbacks_deadline_stalled;
+  }
   if (const Fault f = CheckControllerOutput(controller_->kind(), id_status_, out_)) {
     safety_.Report(f);
     return;

@@ -42,6 +42,9 @@ struct LoopStats {
   /// of those, the ones whose QP ran out of its time budget (controller time_budget_us; wall
   /// time, or the thread's CPU time under the lock-step clock) rather than its iterations
   std::uint64_t controller_fallbacks_deadline = 0;
+  /// of those, the ones whose QP ran under half or over 1.25× its budget: the thread was stalled
+  /// (DeadlineSpentByAStall, servo/control/id_types.h), not the QP slow
+  std::uint64_t controller_fallbacks_deadline_stalled = 0;
   LatencyHistogram wakeup;                    // wake-up latency
   LatencyHistogram cycle;                     // read start .. write end
   LatencyHistogram control;                   // dynamics + controller

@@ -84,10 +84,9 @@ s = json.load(open(p))
 left = [e for e in s["event_log"] if e["from"] == "active"]
 stopped = rc != 0 and left and left[0]["reason"] == "deadline_miss"
 too_many = s["deadline_misses"] > 10 * dur or s["max_consecutive_misses"] >= 5
-# a QP stopped by its 400 us budget (lock-step: the thread's CPU time) ends within an iteration
-# of it; one that fell back after more than 2 ms of wall time had a stall charged to the thread
-# as CPU time (seen once here beside a CPU hog: 3.4 ms)
-budget_fallback = s["controller_fallbacks_deadline"] > 0
+# a fallback on the QP time budget that the daemon did not itself classify as a stalled thread
+# (DeadlineSpentByAStall), in a run with a cycle or QP over 2 ms
+budget_fallback = s["controller_fallbacks_deadline"] > s["controller_fallbacks_deadline_stalled"]
 if not (stopped or too_many or budget_fallback): sys.exit(1)
 last = re.search(r"last ([0-9.]+) us", left[0]["detail"]) if stopped else None
 worst = max(s["cycle_time"]["max_us"], s["qp_time_max_us"], float(last.group(1)) if last else 0.0)
@@ -130,7 +129,7 @@ case "$mode" in
     # 0-5 cycles of 5000 on an idle VM, 18-20 beside the suite's fuzzers): no deadline fault, and
     # at most 1 % of the cycles over (a controller that is really too slow misses every cycle)
     check_json "s['deadline_misses'] <= 10 * $dur and s['max_consecutive_misses'] < 5"
-    "$py" -c "import json; s = json.load(open('$out/servod.json')); print('hil_e2e_test: $dur s of trot, controller fallbacks', s['controller_fallbacks'], '(on the time budget:', s['controller_fallbacks_deadline'], '), QP time mean %.1f us max %.1f us' % (s['qp_time_mean_us'], s['qp_time_max_us']))"
+    "$py" -c "import json; s = json.load(open('$out/servod.json')); print('hil_e2e_test: $dur s of trot, controller fallbacks', s['controller_fallbacks'], '(on the time budget:', s['controller_fallbacks_deadline'], ', of them a stalled thread:', s['controller_fallbacks_deadline_stalled'], '), QP time mean %.1f us max %.1f us' % (s['qp_time_mean_us'], s['qp_time_max_us']))"
     check_json 'set(s["events"]) <= {"bring_up_complete", "enable_command", "stop_request"}'
     check_json 'sim["lockstep_forced_steps"] == 0'
     decode_log
@@ -144,12 +143,14 @@ for r in csv.DictReader(open(sys.argv[1])):
               f"({r['stage1_iterations (count)']} it, {float(r['stage1_solve_us (us)']):.0f} us), Stage II "
               f"{names[int(r['stage2_status (enum)'])]} ({r['stage2_iterations (count)']} it, {float(r['stage2_solve_us (us)']):.0f} us)")
 PY
-    # issue 16: none, neither from a QP that ran out of iterations (before: 12-20 per 60 s run)
-    # nor from one that ran out of its 400 us time budget (config/hyq_servo_sim.yaml), which in
-    # lock-step is the servo thread's CPU time (qp/deadline.h; on the wall clock a preempted
-    # thread fell back 0-2 times per 60 s here)
-    check_json 's["controller_fallbacks_deadline"] == 0'
-    check_json 's["controller_fallbacks"] == 0'
+    # issue 16: none from a QP that ran out of iterations (before: 12-20 per 60 s run), none from
+    # a QP too slow for its 400 us time budget (config/hyq_servo_sim.yaml; lock-step: the servo
+    # thread's CPU time, qp/deadline.h). A fallback on the budget that a stalled thread caused
+    # (the QP's own time under half or over 1.25x the budget: the VMs here deschedule a vCPU for
+    # ms, which the guest charges to the thread's CPU time; 1 in 60 s seen beside a CPU hog,
+    # its QP had run 17.7 us) is the machine's, counted apart, and allowed a few times
+    check_json 's["controller_fallbacks"] == s["controller_fallbacks_deadline_stalled"]'
+    check_json 's["controller_fallbacks_deadline_stalled"] <= 5'
     ;;
   realtime)
     # issue 17: the real-time clock with the SHIPPED configuration (config/hyq_servo_sim.yaml,

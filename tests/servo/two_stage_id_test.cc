@@ -249,6 +249,31 @@ class TwoStage : public ::testing::Test {
   }
 };
 
+// Which deadline fallbacks a stalled thread caused (the servo summary counts them apart)
+TEST(IdFallbackKinds, DeadlineSpentByAStallOnlyWhenTheQpTimeIsFarFromTheBudget) {
+  const double budget_s = 400e-6;
+  IdOutput out;
+  out.fallback = Fallback::kContactFreeId;  // Stage I failed
+  out.stage1.status = qp::Status::kDeadline;
+  for (const auto& [time_s, stalled] : std::initializer_list<std::pair<double, bool>>{
+           {17.7e-6, true}, {150e-6, true}, {405e-6, false}, {480e-6, false}, {600e-6, true},
+           {3.4e-3, true}}) {
+    out.stage1.solve_time_s = time_s;
+    EXPECT_TRUE(FellBackOnDeadline(out));
+    EXPECT_EQ(DeadlineSpentByAStall(out, budget_s), stalled) << time_s;
+  }
+  out.stage1.status = qp::Status::kIterationLimit;  // not a deadline fallback at all
+  out.stage1.solve_time_s = 17.7e-6;
+  EXPECT_FALSE(DeadlineSpentByAStall(out, budget_s));
+  out.fallback = Fallback::kStage1Torque;  // Stage II failed: its report counts
+  out.stage1.status = qp::Status::kOptimal;
+  out.stage2.status = qp::Status::kDeadline;
+  out.stage2.solve_time_s = 420e-6;
+  EXPECT_FALSE(DeadlineSpentByAStall(out, budget_s));
+  out.stage2.solve_time_s = 20e-6;
+  EXPECT_TRUE(DeadlineSpentByAStall(out, budget_s));
+}
+
 TEST_F(TwoStage, MomentumEquationAndJointRowsHold) {
   for (const auto& stance : {kAll, kLfRh, kRfLh, std::array<bool, 4>{true, true, true, false}}) {
     for (int trial = 0; trial < 20; ++trial) {

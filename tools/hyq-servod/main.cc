@@ -218,6 +218,7 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
   j["qp_time_max_us"] = s.qp_time_max_us;
   j["controller_fallbacks"] = s.controller_fallbacks;
   j["controller_fallbacks_deadline"] = s.controller_fallbacks_deadline;
+  j["controller_fallbacks_deadline_stalled"] = s.controller_fallbacks_deadline_stalled;
   auto hist = [](const hyq::servo::LatencyHistogram& h) {
     return nlohmann::json{{"count", h.count()},         {"mean_us", 1e-3 * h.mean_ns()},
                           {"p50_us", Us(h.Percentile(0.5))}, {"p99_us", Us(h.Percentile(0.99))},
