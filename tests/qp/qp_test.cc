@@ -485,11 +485,16 @@ TEST(QpStatus, NeverOptimalWithANonFiniteAnswer) {
   EXPECT_TRUE(std::isnan(k.max()));  // a NaN residual is never "within tolerance"
 }
 
-TEST(QpStatus, IterationLimitAndDeadlineReturnTheLastIterate) {
+// The full capacity, well conditioned, with 35 active rows: long enough to stop early.
+Planted FullSizePlanted() {
   std::mt19937_64 rng(11);
+  return MakePlanted({.n = 40, .m = 80, .condition = 1e2, .active_bounds = 10,
+                      .active_constraints = 25}, &rng);
+}
+
+TEST(QpStatus, IterationLimitAndDeadlineReturnTheLastIterate) {
   Solver solver;
-  const Planted t = MakePlanted({.n = 40, .m = 80, .condition = 1e2, .active_bounds = 10,
-                                 .active_constraints = 25}, &rng);
+  const Planted t = FullSizePlanted();
   Solution s;
   Budget b;
   b.max_iterations = 5;
@@ -519,10 +524,8 @@ TEST(QpDeadline, ThreadCpuTimeIgnoresTimeAsleepAndCountsWork) {
   EXPECT_FALSE(cpu.Passed()) << "5 ms asleep used up a 2 ms CPU-time budget";
   EXPECT_GT(cpu.Remaining(), 1ms);
   // a solve under it, after the sleep, is not stopped by the wall time
-  std::mt19937_64 rng(11);
   Solver solver;
-  const Planted t = MakePlanted({.n = 40, .m = 80, .condition = 1e2, .active_bounds = 10,
-                                 .active_constraints = 25}, &rng);
+  const Planted t = FullSizePlanted();
   Solution s;
   Budget b;
   b.deadline = cpu;

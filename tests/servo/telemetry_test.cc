@@ -448,12 +448,20 @@ struct LossyLink {
   }
 };
 
-TEST(TelemetryRepeats, AnEventOutlivesAHundredAndFiftyMillisecondsOfLoss) {
+// A started Telemetry on memq:// publishing through a LossyLink (losing until told otherwise).
+class TelemetryRepeats : public ::testing::Test {
+ protected:
+  TelemetryRepeats() : telemetry(MemqConfig(), {}, link.Fn()) { telemetry.Start(); }
+  static TelemetryConfig MemqConfig() {
+    TelemetryConfig config;
+    config.lcm_url = "memq://";
+    return config;
+  }
   LossyLink link;
-  TelemetryConfig config;
-  config.lcm_url = "memq://";
-  Telemetry telemetry(config, {}, link.Fn());
-  telemetry.Start();
+  Telemetry telemetry;
+};
+
+TEST_F(TelemetryRepeats, AnEventOutlivesAHundredAndFiftyMillisecondsOfLoss) {
   ASSERT_TRUE(telemetry.PushEvent(MakeEvent(11, EventReason::kDeviceFault, "node 3 left OP")));
   std::this_thread::sleep_for(150ms);  // the first copy and the 20 ms and 100 ms repeats: lost
   link.losing.store(false);
@@ -464,12 +472,7 @@ TEST(TelemetryRepeats, AnEventOutlivesAHundredAndFiftyMillisecondsOfLoss) {
   EXPECT_LE(link.Count(11), 4) << "one copy and three repeats at most";
 }
 
-TEST(TelemetryRepeats, StopSendsTheCopiesStillOwed) {
-  LossyLink link;
-  TelemetryConfig config;
-  config.lcm_url = "memq://";
-  Telemetry telemetry(config, {}, link.Fn());
-  telemetry.Start();
+TEST_F(TelemetryRepeats, StopSendsTheCopiesStillOwed) {
   ASSERT_TRUE(telemetry.Push(MakeSnapshot(1)));
   ASSERT_TRUE(telemetry.PushEvent(MakeEvent(12, EventReason::kInputMissing, "held 4 cycles")));
   std::this_thread::sleep_for(5ms);  // the first copy is lost; the daemon stops at once
