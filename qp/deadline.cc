@@ -7,6 +7,9 @@
 namespace hyq::qp {
 namespace {
 
+// qp/ depends on Eigen alone (docs/architecture.md), so it reads the two clocks itself instead
+// of through hal/clock.h (MonotonicNs, ThreadCpuNs), which sits above it
+
 std::int64_t WallNs() noexcept {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(
              std::chrono::steady_clock::now().time_since_epoch())
@@ -20,10 +23,6 @@ std::int64_t ThreadCpuNs() noexcept {
 }
 
 }  // namespace
-
-const char* ToString(DeadlineClock clock) noexcept {
-  return clock == DeadlineClock::kThreadCpu ? "thread_cpu" : "monotonic";
-}
 
 Deadline Deadline::In(std::chrono::nanoseconds budget, DeadlineClock clock) noexcept {
   Deadline d;

@@ -22,9 +22,6 @@ enum class DeadlineClock : std::uint8_t {
   kThreadCpu,  ///< the calling thread's CPU time, CLOCK_THREAD_CPUTIME_ID
 };
 
-/// "monotonic" / "thread_cpu".
-const char* ToString(DeadlineClock clock) noexcept;
-
 class Deadline {
  public:
   Deadline() = default;  // now on the wall clock: already passed

@@ -19,7 +19,6 @@
 // Saunders, Math. Comp. 28, 1974, method C1].
 #pragma once
 
-
 #include "qp/deadline.h"
 #include "qp/workspace.h"
 

@@ -63,14 +63,18 @@ struct IdOutput {
   Fallback fallback = Fallback::kNone;
 };
 
-/// Whether out's fallback came from a QP that ran out of its wall-clock budget (Stage II's for
+/// The stage whose QP a fallback came from: Stage II's for kStage1Torque, Stage I's otherwise.
+inline const StageReport& FailedStage(const IdOutput& out) noexcept {
+  return out.fallback == Fallback::kStage1Torque ? out.stage2 : out.stage1;
+}
+
+/// Whether out's fallback came from a QP that ran out of its time budget (Stage II's for
 /// kStage1Torque, Stage I's for kContactFreeId) rather than its iterations: a preempted thread,
 /// or a QP whose retries (SolveWithRetries) outlasted the budget.
 inline bool FellBackOnDeadline(const IdOutput& out) noexcept {
   if (out.fallback != Fallback::kStage1Torque && out.fallback != Fallback::kContactFreeId)
     return false;
-  const StageReport& failed = out.fallback == Fallback::kStage1Torque ? out.stage2 : out.stage1;
-  return failed.status == qp::Status::kDeadline;
+  return FailedStage(out).status == qp::Status::kDeadline;
 }
 
 /// For a fallback on the deadline: whether the thread, not the QP, used up the budget. The QP
@@ -81,8 +85,8 @@ inline bool FellBackOnDeadline(const IdOutput& out) noexcept {
 /// guest charges to the thread's CPU time).
 inline bool DeadlineSpentByAStall(const IdOutput& out, double budget_s) noexcept {
   if (!FellBackOnDeadline(out)) return false;
-  const StageReport& failed = out.fallback == Fallback::kStage1Torque ? out.stage2 : out.stage1;
-  return failed.solve_time_s < 0.5 * budget_s || failed.solve_time_s > 1.25 * budget_s;
+  const double t = FailedStage(out).solve_time_s;
+  return t < 0.5 * budget_s || t > 1.25 * budget_s;
 }
 
 /// Counts of each fallback taken, for telemetry.
