@@ -281,7 +281,7 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
     const YAML::Node n = Section(r, root, "telemetry");
     const std::string p = "telemetry";
     r.Keys(n, p, {"enabled", "lcm_url", "channel_prefix", "joint_state_every",
-                  "joint_torque_every", "base_state_every", "contact_every", "timing_every",
+                  "joint_torque_every", "base_state_every", "contact_every", "friction_every", "timing_every",
                   "health_every", "snapshot_queue_capacity", "event_queue_capacity",
                   "command_queue_capacity", "idle_wait_ms"});
     auto& s = c.telemetry;
@@ -307,6 +307,7 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
     s.joint_torque_every = every("joint_torque_every", s.joint_torque_every);
     s.base_state_every = every("base_state_every", s.base_state_every);
     s.contact_every = every("contact_every", s.contact_every);
+    s.friction_every = every("friction_every", s.friction_every);
     s.timing_every = every("timing_every", s.timing_every);
     s.health_every = every("health_every", s.health_every);
     // queue capacities: powers of two
@@ -374,6 +375,39 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
   }
 }
 
+// contact.friction_estimation (servo/estimation/friction_estimator.h)
+void ReadFrictionEstimation(const Reader& r, const YAML::Node& contact, servo::ServoConfig& c) {
+  if (!contact["friction_estimation"].IsDefined()) return;
+  const YAML::Node n = r.Map(contact, "contact", "friction_estimation");
+  const std::string p = "contact.friction_estimation";
+  r.Keys(n, p, {"enabled", "prior_mu", "min_mu", "margin", "min_normal_N", "slip_speed_m_s",
+                "slip_cycles", "slip_alignment", "touchdown_blank_s", "stick_speed_m_s",
+                "rise_per_s", "slip_filter",
+                "confidence_time_s", "memory_radius_m"});
+  auto& s = c.friction;
+  s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
+  s.prior_mu = Bounded(r, n, p, "prior_mu", s.prior_mu, 0.0, 2.0);
+  s.min_mu = Bounded(r, n, p, "min_mu", s.min_mu, 0.0, 2.0);
+  s.margin = Bounded(r, n, p, "margin", s.margin, 0.0, 0.9);
+  s.min_normal_N = Bounded(r, n, p, "min_normal_N", s.min_normal_N, 1.0, 5000.0);
+  s.slip_speed_m_s = Bounded(r, n, p, "slip_speed_m_s", s.slip_speed_m_s, 1e-4, 10.0);
+  s.slip_cycles = BoundedInt(r, n, p, "slip_cycles", s.slip_cycles, 1, 1000);
+  s.slip_alignment = Bounded(r, n, p, "slip_alignment", s.slip_alignment, -1.0, 1.0);
+  s.touchdown_blank_s = Bounded(r, n, p, "touchdown_blank_s", s.touchdown_blank_s, 0.0, 1.0);
+  s.stick_speed_m_s = Bounded(r, n, p, "stick_speed_m_s", s.stick_speed_m_s, 0.0, 10.0);
+  s.rise_per_s = Bounded(r, n, p, "rise_per_s", s.rise_per_s, 0.0, 100.0);
+  s.slip_filter = Bounded(r, n, p, "slip_filter", s.slip_filter, 0.0, 1.0);
+  s.confidence_time_s = Bounded(r, n, p, "confidence_time_s", s.confidence_time_s, 1e-3, 1e4);
+  s.memory_radius_m = Bounded(r, n, p, "memory_radius_m", s.memory_radius_m, 0.0, 10.0);
+  if (s.stick_speed_m_s > s.slip_speed_m_s)
+    r.Fail(n["stick_speed_m_s"], p + ".stick_speed_m_s",
+           "at most slip_speed_m_s (" + std::to_string(s.slip_speed_m_s) + ")",
+           std::to_string(s.stick_speed_m_s));
+  if (s.min_mu > s.prior_mu)
+    r.Fail(n["min_mu"], p + ".min_mu", "at most prior_mu (" + std::to_string(s.prior_mu) + ")",
+           std::to_string(s.min_mu));
+}
+
 servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
                         const std::filesystem::path& base_dir) {
   if (!root.IsMap()) r.Fail(root, "(top level)", "a map", Describe(root));
@@ -405,8 +439,9 @@ servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
   ReadController(r, root, c);
 
   const YAML::Node contact = Section(r, root, "contact");
-  r.Keys(contact, "contact", {"mu"});
+  r.Keys(contact, "contact", {"mu", "friction_estimation"});
   if (contact["mu"].IsDefined()) c.mu = PerFoot(r, contact, "contact", "mu", 0.0, 2.0);
+  ReadFrictionEstimation(r, contact, c);
 
   ReadReference(r, root, c);
 

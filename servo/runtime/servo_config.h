@@ -12,6 +12,7 @@
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/estimator.h"
+#include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
 #include "servo/runtime/deadline_monitor.h"
 #include "servo/runtime/realtime_thread.h"
@@ -43,7 +44,8 @@ struct ServoConfig {
   // time there, which stands still while nobody answers)
   double lockstep_bringup_timeout_s = 30.0;
   ControllerConfig controller;
-  std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};
+  std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};  // the upper bound with the estimator on
+  FrictionEstimatorConfig friction;     // contact.friction_estimation
   Reference::Kind reference = Reference::Kind::kStand;
   TrotParams trot;
   FigureEightParams figure_eight;

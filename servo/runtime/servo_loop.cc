@@ -68,10 +68,12 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
       controller_(std::make_unique<Controller>(model, ForClock(config.controller, config.clock))),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
+      friction_(config.friction),
       base_gains_(config.controller.feedback),
       command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
                        config.safety.damp_on_bad_command} {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
+  id_env_ = env_;
   reference_->Sample(0.0, &ref_);
   joint_ref_ = ref_.joints;
   snap_.num_buses = static_cast<std::uint8_t>(std::min<std::size_t>(hal.num_buses(), kMaxBuses));
@@ -169,6 +171,10 @@ void ServoLoop::SampleReference() noexcept {
 
 void ServoLoop::RunController() noexcept {
   tau_.setZero();
+  // outside ACTIVE the μ shown is the command's (or the last estimate below it)
+  for (std::size_t f = 0; f < kNumFeet; ++f)
+    id_env_.mu[f] = config_.friction.enabled ? std::min(friction_.feet()[f].mu_control, env_.mu[f])
+                                             : env_.mu[f];
   if (safety_.mode() != ServoMode::kActive) return;
   if (const Fault f = CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) {
     safety_.Report(f);
@@ -180,7 +186,8 @@ void ServoLoop::RunController() noexcept {
     safety_.Report(f);
     return;
   }
-  id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, env_, dt_, &out_);
+  EstimateFriction();
+  id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, id_env_, dt_, &out_);
   if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
   if (FellBackOnDeadline(out_)) {
     ++stats_.controller_fallbacks_deadline;
@@ -193,6 +200,21 @@ void ServoLoop::RunController() noexcept {
     return;
   }
   tau_ = out_.tau_Nm;
+}
+
+// the μ Stage I gets: the configured or commanded one, or the estimate below it (issue 18)
+void ServoLoop::EstimateFriction() noexcept {
+  if (!config_.friction.enabled) return;
+  std::array<FootFrictionInput, kNumFeet> in;
+  const auto& joints = hal_.image().joints;
+  for (int f = 0; f < kNumFeet; ++f) {
+    const auto j = static_cast<std::size_t>(3 * f);
+    const Eigen::Vector3d tau(joints[j].torque_Nm, joints[j + 1].torque_Nm, joints[j + 2].torque_Nm);
+    in[static_cast<std::size_t>(f)] = MeasureFoot(model_, *dyn_, estimator_.v(), f,
+                                                  estimator_.stance()[static_cast<std::size_t>(f)], tau);
+  }
+  friction_.Update(in, env_.mu, dt_);
+  for (std::size_t f = 0; f < kNumFeet; ++f) id_env_.mu[f] = friction_.feet()[f].mu_control;
 }
 
 void ServoLoop::Damping() noexcept {
@@ -310,7 +332,18 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
   for (std::size_t f = 0; f < kNumFeet; ++f) {
     s.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
     s.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
-    s.mu[f] = env_.mu[f];
+    s.mu[f] = id_env_.mu[f];
+    const FootFriction& fr = friction_.feet()[f];
+    s.mu_upper[f] = env_.mu[f];
+    s.mu_estimate[f] = fr.mu;
+    s.mu_confidence[f] = fr.confidence;
+    s.force_ratio[f] = fr.ratio;
+    s.slip_speed_m_s[f] = fr.slip_speed_m_s;
+    for (int i = 0; i < 3; ++i) s.foot_force_N[f][static_cast<std::size_t>(i)] = fr.force_W(i);
+    s.foot_loaded[f] = fr.loaded ? 1 : 0;
+    s.foot_slipping[f] = fr.slipping ? 1 : 0;
+    s.slips[f] = fr.slips;
+    s.footfalls[f] = fr.footfalls;
     const auto& imp = out_.impulses[f];
     const Eigen::Vector3d F =
         active && imp.active ? Eigen::Vector3d((imp.normal_Ns * Eigen::Vector3d::UnitZ() +
@@ -318,6 +351,7 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
                              : Eigen::Vector3d::Zero();
     for (int i = 0; i < 3; ++i) s.contact_force_N[f][static_cast<std::size_t>(i)] = F(i);
   }
+  s.friction_enabled = config_.friction.enabled;
   s.stage1_status = static_cast<std::uint8_t>(out_.stage1.status);
   s.stage2_status = static_cast<std::uint8_t>(out_.stage2.status);
   s.fallback = static_cast<std::uint8_t>(out_.fallback);

@@ -18,6 +18,7 @@
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/estimator.h"
+#include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
 #include "servo/runtime/command_rules.h"
 #include "servo/runtime/deadline_monitor.h"
@@ -87,6 +88,7 @@ class ServoLoop {
   const TelemetrySnapshot& snapshot() const noexcept { return snap_; }
   const Controller& controller() const noexcept { return *controller_; }
   const StateEstimator& estimator() const noexcept { return estimator_; }
+  const FrictionEstimator& friction() const noexcept { return friction_; }
   std::uint64_t events() const noexcept { return safety_.events(); }
   /// The run's first events (up to kFirstEvents) and last event, for the summary.
   std::span<const SafetyEvent> first_events() const noexcept {
@@ -121,6 +123,7 @@ class ServoLoop {
   void PublishTelemetry(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws,
                         ServoMode mode) noexcept;
 
+  void EstimateFriction() noexcept;
   void EnterActive() noexcept;
   void Damping() noexcept;
   void FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept;
@@ -139,7 +142,9 @@ class ServoLoop {
   std::unique_ptr<Reference> reference_;
   std::unique_ptr<Controller> controller_;
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
-  ContactEnvironment env_;
+  ContactEnvironment env_;     // configured or commanded μ (the estimate's upper bound)
+  FrictionEstimator friction_;
+  ContactEnvironment id_env_;  // what the controller gets: env_, or the estimated μ
   FeedbackGains base_gains_;
   CommandTargets command_targets_;  // what a command may change (built once)
   ReferenceSample ref_;

@@ -20,6 +20,7 @@ static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_health::held_inputs)> == 
 static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_health::max_held_in_row)> == kMaxDevices);
 static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_joint_state::q_rad)> == kNumJoints);
 static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_contact_state::mu)> == kNumFeet);
+static_assert(std::extent_v<decltype(hyq_lcm::lcmt_hyq_friction_estimate::mu_estimate)> == kNumFeet);
 
 }  // namespace
 
@@ -75,6 +76,26 @@ void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_contact_state* out) noe
   m.stage2_iterations = s.stage2_iterations;
   m.stage1_solve_us = s.stage1_solve_us;
   m.stage2_solve_us = s.stage2_solve_us;
+}
+
+void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_friction_estimate* out) noexcept {
+  hyq_lcm::lcmt_hyq_friction_estimate& m = *out;
+  m.utime = s.time_ns / 1000;
+  m.cycle = static_cast<std::int64_t>(s.cycle);
+  m.enabled = s.friction_enabled;
+  CopyArray(s.mu_estimate, &m.mu_estimate);
+  CopyArray(s.mu, &m.mu_control);
+  CopyArray(s.mu_upper, &m.mu_upper);
+  CopyArray(s.mu_confidence, &m.confidence);
+  CopyArray(s.force_ratio, &m.force_ratio);
+  CopyArray(s.slip_speed_m_s, &m.slip_speed_m_s);
+  for (std::size_t f = 0; f < kNumFeet; ++f) {
+    CopyArray(s.foot_force_N[f], &m.force_N[f]);
+    m.loaded[f] = s.foot_loaded[f] != 0;
+    m.slipping[f] = s.foot_slipping[f] != 0;
+    m.slips[f] = static_cast<std::int32_t>(s.slips[f]);
+    m.footfalls[f] = static_cast<std::int32_t>(s.footfalls[f]);
+  }
 }
 
 void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_servo_timing* out) noexcept {

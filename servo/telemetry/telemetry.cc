@@ -80,8 +80,8 @@ struct Telemetry::Impl {
   bool running = false;
 
   // telemetry thread only: channel names, messages and the encode buffer, all built up front
-  std::string ch_joint_state, ch_joint_torque, ch_base_state, ch_contact, ch_timing, ch_health,
-      ch_event;
+  std::string ch_joint_state, ch_joint_torque, ch_base_state, ch_contact, ch_friction, ch_timing,
+      ch_health, ch_event;
   TelemetrySnapshot current;
   bool have_current = false;
   SafetyEvent event_in;
@@ -89,6 +89,7 @@ struct Telemetry::Impl {
   hyq_lcm::lcmt_hyq_joint_torque joint_torque{};
   hyq_lcm::lcmt_hyq_base_state base_state{};
   hyq_lcm::lcmt_hyq_contact_state contact{};
+  hyq_lcm::lcmt_hyq_friction_estimate friction{};
   hyq_lcm::lcmt_hyq_servo_timing timing{};
   hyq_lcm::lcmt_hyq_health health{};
   hyq_lcm::lcmt_hyq_event event{};
@@ -161,6 +162,7 @@ Telemetry::Telemetry(const TelemetryConfig& config, const CommandChannelConfig& 
   m.ch_joint_torque = channel("JOINT_TORQUE");
   m.ch_base_state = channel("BASE_STATE");
   m.ch_contact = channel("CONTACT");
+  m.ch_friction = channel("FRICTION");
   m.ch_timing = channel("TIMING");
   m.ch_health = channel("HEALTH");
   m.ch_event = channel("EVENT");
@@ -168,6 +170,7 @@ Telemetry::Telemetry(const TelemetryConfig& config, const CommandChannelConfig& 
     s->reserve(kEventStringCapacity);
   m.buffer.resize(std::max({m.joint_state.getEncodedSize(), m.joint_torque.getEncodedSize(),
                             m.base_state.getEncodedSize(), m.contact.getEncodedSize(),
+                            m.friction.getEncodedSize(),
                             m.timing.getEncodedSize(), m.health.getEncodedSize(),
                             m.event.getEncodedSize() + 4 * static_cast<int>(kEventStringCapacity)}));
 }
@@ -320,6 +323,7 @@ void Telemetry::Impl::PublishSnapshot(const TelemetrySnapshot& s) {
   publish(config.joint_torque_every, ch_joint_torque, &joint_torque);
   publish(config.base_state_every, ch_base_state, &base_state);
   publish(config.contact_every, ch_contact, &contact);
+  publish(config.friction_every, ch_friction, &friction);
   publish(config.timing_every, ch_timing, &timing);
   if (Due(s.cycle, config.health_every)) PublishHealth(s);
 }

@@ -55,6 +55,14 @@ struct TelemetrySnapshot {
   double stage1_solve_us = 0.0, stage2_solve_us = 0.0;
   double tracking_error_rad = 0.0;      // ‖q_ref − q‖
 
+  // friction estimation (servo/estimation/friction_estimator.h)
+  bool friction_enabled = false;
+  std::array<double, kNumFeet> mu_estimate{}, mu_upper{}, mu_confidence{}, force_ratio{};
+  std::array<double, kNumFeet> slip_speed_m_s{};
+  std::array<std::array<double, 3>, kNumFeet> foot_force_N{};     // from the load cells, world
+  std::array<std::uint8_t, kNumFeet> foot_loaded{}, foot_slipping{};
+  std::array<std::uint32_t, kNumFeet> slips{}, footfalls{};
+
   // timing and deadline
   CycleTiming timing;
   std::uint64_t deadline_misses = 0;    // cycles whose work overran the budget

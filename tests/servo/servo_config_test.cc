@@ -57,6 +57,49 @@ TEST(ServoConfigYaml, EveryTelemetryKeyReachesTelemetryConfig) {
   EXPECT_EQ(t.idle_wait_ms, 4);
 }
 
+TEST(ServoConfigYaml, EveryFrictionEstimationKeyReachesItsConfig) {
+  const servo::ServoConfig c = Parse(R"(contact:
+  mu: 0.8
+  friction_estimation:
+    enabled: true
+    prior_mu: 0.9
+    min_mu: 0.07
+    margin: 0.3
+    min_normal_N: 55
+    slip_speed_m_s: 0.06
+    slip_cycles: 4
+    slip_alignment: 0.6
+    touchdown_blank_s: 0.02
+    stick_speed_m_s: 0.01
+    rise_per_s: 0.7
+    slip_filter: 0.4
+    confidence_time_s: 0.8
+    memory_radius_m: 0.25
+telemetry:
+  friction_every: 9
+)");
+  const servo::FrictionEstimatorConfig& f = c.friction;
+  EXPECT_TRUE(f.enabled);
+  EXPECT_DOUBLE_EQ(f.prior_mu, 0.9);
+  EXPECT_DOUBLE_EQ(f.min_mu, 0.07);
+  EXPECT_DOUBLE_EQ(f.margin, 0.3);
+  EXPECT_DOUBLE_EQ(f.min_normal_N, 55.0);
+  EXPECT_DOUBLE_EQ(f.slip_speed_m_s, 0.06);
+  EXPECT_EQ(f.slip_cycles, 4);
+  EXPECT_DOUBLE_EQ(f.slip_alignment, 0.6);
+  EXPECT_DOUBLE_EQ(f.touchdown_blank_s, 0.02);
+  EXPECT_DOUBLE_EQ(f.stick_speed_m_s, 0.01);
+  EXPECT_DOUBLE_EQ(f.rise_per_s, 0.7);
+  EXPECT_DOUBLE_EQ(f.slip_filter, 0.4);
+  EXPECT_DOUBLE_EQ(f.confidence_time_s, 0.8);
+  EXPECT_DOUBLE_EQ(f.memory_radius_m, 0.25);
+  EXPECT_EQ(c.telemetry.friction_every, 9u);
+  EXPECT_DOUBLE_EQ(c.mu[0], 0.8);
+  // the shipped files: off on the robot and with hyq-sim (the operator turns it on)
+  EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").friction.enabled);
+  EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").friction.enabled);
+}
+
 TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
   const servo::ServoConfig c = Parse(R"(commands:
   enabled: true
@@ -167,6 +210,14 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
   const std::string held = message("safety:\n  max_missing_cycles: 20\n");
   EXPECT_NE(held.find("safety.max_missing_cycles"), std::string::npos) << held;
   EXPECT_NE(held.find("timing.max_held_cycles"), std::string::npos) << held;
+  const std::string fe = message("contact:\n  friction_estimation:\n    slip_cycles: 2.5\n");
+  EXPECT_NE(fe.find("contact.friction_estimation.slip_cycles"), std::string::npos) << fe;
+  const std::string fe2 = message(
+      "contact:\n  friction_estimation:\n    slip_speed_m_s: 0.01\n    stick_speed_m_s: 0.02\n");
+  EXPECT_NE(fe2.find("contact.friction_estimation.stick_speed_m_s"), std::string::npos) << fe2;
+  EXPECT_NE(fe2.find("at most slip_speed_m_s"), std::string::npos) << fe2;
+  const std::string fe3 = message("contact:\n  friction_estimation:\n    colour: blue\n");
+  EXPECT_NE(fe3.find("colour"), std::string::npos) << fe3;
   const std::string ctrl = message("commands:\n  allowed_controllers: [pid, warp]\n");
   EXPECT_NE(ctrl.find("commands.allowed_controllers[1]"), std::string::npos) << ctrl;
   EXPECT_NE(ctrl.find("warp"), std::string::npos) << ctrl;

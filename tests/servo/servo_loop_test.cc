@@ -295,6 +295,7 @@ TEST(ServoLoop, FullCyclesDoNotTouchTheHeap) {
     ServoConfig cfg = ActiveConfig();
     cfg.controller.kind = kind;
     cfg.reference = Reference::Kind::kTrot;
+    cfg.friction.enabled = true;  // the friction estimator in the cycle too (issue 18)
     ServoRig rig(cfg);
     rig.BringUpAndStart();
     rig.Steps(5);  // first touches (lazy static initialisation in libraries) outside the guard

@@ -273,7 +273,7 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
   }
   // the losses, counted per channel (at most everything, and something arrived on each)
   for (const char* ch : {"HYQ_JOINT_STATE", "HYQ_JOINT_TORQUE", "HYQ_BASE_STATE", "HYQ_CONTACT",
-                         "HYQ_TIMING"}) {
+                         "HYQ_FRICTION", "HYQ_TIMING"}) {
     EXPECT_LE(count[ch], kCycles) << ch;
     EXPECT_GE(count[ch], 1) << ch;
     std::printf("%s: %d of %d recorded (%d lost)\n", ch, count[ch], kCycles, kCycles - count[ch]);

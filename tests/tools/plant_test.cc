@@ -8,6 +8,8 @@
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
 
+#include "dynamics/cycle_dynamics.h"
+#include "servo/estimation/friction_estimator.h"
 #include "tests/dynamics/hyq_fixture.h"
 #include "tools/sim/plant.h"
 
@@ -105,6 +107,87 @@ TEST(Plant, FrictionPerFoot) {
       worst = std::max(worst, c.force_W.head<2>().norm() / c.force_W.z());
   }
   EXPECT_LE(worst, 0.05 * 1.03);
+}
+
+// Issue 18's friction patches: each foot takes the μ of the patch under it, at every step.
+TEST(Plant, FrictionPatchesFollowTheFeet) {
+  PlantConfig cfg;
+  cfg.ground_mu = 1.0;
+  cfg.foot_mu = {-1.0, 0.7, -1.0, -1.0};  // rf has its own μ away from the patches
+  Plant probe(HyqModel(), cfg);
+  const auto feet0 = [&] {
+    std::array<double, 4> x{};
+    for (int f = 0; f < 4; ++f)
+      x[static_cast<std::size_t>(f)] = probe.mj_data()->geom_xpos[3 * mj_name2id(probe.mj_model(), mjOBJ_GEOM, HyqModel().feet[static_cast<std::size_t>(f)].name.c_str())];
+    return x;
+  }();
+  // a patch under the front feet only (front feet at x > 0, hind feet at x < 0)
+  cfg.patches = {ParseGroundPatch("0.1,2.0,-1,1,0.1", "--ground-patch")};
+  Plant plant(HyqModel(), cfg);
+  ASSERT_GT(feet0[0], 0.1);
+  ASSERT_LT(feet0[2], 0.1);
+  EXPECT_DOUBLE_EQ(plant.foot_friction(0), 0.1);
+  EXPECT_DOUBLE_EQ(plant.foot_friction(1), 0.1);   // the patch wins over the foot's own
+  EXPECT_DOUBLE_EQ(plant.foot_friction(2), 1.0);
+  EXPECT_DOUBLE_EQ(plant.FrictionAt(1, -5.0, 0.0), 0.7);  // off the patch: the foot's own
+  EXPECT_DOUBLE_EQ(plant.FrictionAt(2, 0.5, 0.0), 0.1);
+  // the robot moved under the patch: the hind feet on it, the front feet beyond it
+  dynamics::VectorQ q = HyqModel().StandingQ();
+  q(0) = 1.9 - feet0[2];  // hind feet at x ≈ 1.9: on the patch
+  plant.Reset(q, dynamics::VectorV::Zero());
+  EXPECT_DOUBLE_EQ(plant.foot_friction(2), 0.1);
+  EXPECT_DOUBLE_EQ(plant.foot_friction(3), 0.1);
+  EXPECT_DOUBLE_EQ(plant.foot_friction(0), 1.0);
+  EXPECT_DOUBLE_EQ(plant.foot_friction(1), 0.7);
+  // SetFootFriction changes the foot's own μ, not the patch's
+  plant.SetFootFriction(3, 0.4);
+  EXPECT_DOUBLE_EQ(plant.foot_friction(3), 0.1);
+  EXPECT_DOUBLE_EQ(plant.FrictionAt(3, -5.0, 0.0), 0.4);
+}
+
+TEST(Plant, GroundPatchSpecsAreChecked) {
+  const GroundPatch p = ParseGroundPatch("0.6,1.2,-1,1,0.1", "--ground-patch");
+  EXPECT_DOUBLE_EQ(p.x0_m, 0.6);
+  EXPECT_DOUBLE_EQ(p.x1_m, 1.2);
+  EXPECT_DOUBLE_EQ(p.y0_m, -1.0);
+  EXPECT_DOUBLE_EQ(p.y1_m, 1.0);
+  EXPECT_DOUBLE_EQ(p.mu, 0.1);
+  for (const char* bad : {"", "1,2,3,4", "1,2,3,4,5,6", "0,1,0,1,x", "1,0,0,1,0.1", "0,1,0,1,-0.1",
+                          "0,1,0,1,nan", "0,1,,1,0.1"}) {
+    try {
+      (void)ParseGroundPatch(bad, "--ground-patch");
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("--ground-patch: expected"), std::string::npos) << what;
+      EXPECT_NE(what.find("found"), std::string::npos) << what;
+    }
+  }
+}
+
+// The force the friction estimator reads from the joint torques (J_legᵀ f = h_leg − τ_leg)
+// against MuJoCo's own contact force, HyQ standing still under a joint PD on the ground
+TEST(Plant, FootForceFromJointTorquesMatchesMujocosContactForce) {
+  PlantConfig cfg;
+  Plant plant(HyqModel(), cfg);
+  const VectorJ q0 = HyqModel().q_standing;
+  VectorJ tau = VectorJ::Zero();
+  for (int k = 0; k < 2000; ++k) {  // settle
+    tau = 2000.0 * (q0 - plant.q().tail<12>()) - 50.0 * plant.v().tail<12>();
+    plant.Step(tau);
+  }
+  auto dyn = std::make_unique<dynamics::CycleDynamics>();
+  ASSERT_EQ(dynamics::ComputeCycleDynamics(HyqModel(), plant.q(), plant.v(), dyn.get()),
+            dynamics::DynamicsStatus::kOk);
+  const auto contacts = plant.FootContacts();
+  for (int f = 0; f < 4; ++f) {
+    const Eigen::Vector3d measured = servo::FootForceFromJointTorques(*dyn, f, tau.segment<3>(3 * f));
+    const Eigen::Vector3d truth = contacts[static_cast<std::size_t>(f)].force_W;
+    ASSERT_TRUE(contacts[static_cast<std::size_t>(f)].touching) << f;
+    // still: v̇ ≈ 0, so the only error is the settling's residual (measured 1e-? N)
+    EXPECT_LT((measured - truth).norm(), 0.01 * truth.norm() + 1.0)
+        << "foot " << f << ": from torques " << measured.transpose() << ", MuJoCo " << truth.transpose();
+  }
 }
 
 }  // namespace

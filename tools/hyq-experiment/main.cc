@@ -33,7 +33,10 @@ constexpr std::string_view kUsage =
     "Writes DIR/<scenario>.csv, DIR/results.json, DIR/results.md and the figures DIR/fig*.png\n"
     "(default DIR: experiments; figures through tools/hyq-experiment/plot.py and matplotlib).\n"
     "\n"
-    "  --all            every scenario (about a minute)\n"
+    "  --all            every scenario (about two minutes)\n"
+    "  --patch          issue 18's scenarios only: a trot from mu = 1 across an icy patch\n"
+    "                   (mu = 0.1, x in [0.6, 1.2] m) and off it, the controller's mu assumed\n"
+    "                   (1.0), given by an oracle, or estimated online; seeds 1-3\n"
     "  --scenario NAME  one scenario (repeatable); --list shows the names\n"
     "  --out DIR        output folder\n"
     "  --record-id      also write every cycle's ID problem, DIR/<scenario>.id.jsonl (hyq-id\n"
@@ -43,6 +46,16 @@ struct Scenario {
   std::string name;
   sim::ExperimentConfig cfg;
 };
+
+sim::GroundPatch PatchOfIce() {
+  sim::GroundPatch p;
+  p.x0_m = 0.6;
+  p.x1_m = 1.2;
+  p.y0_m = -2.0;
+  p.y1_m = 2.0;
+  p.mu = 0.1;
+  return p;
+}
 
 std::vector<Scenario> Scenarios() {
   std::vector<Scenario> all;
@@ -74,6 +87,24 @@ std::vector<Scenario> Scenarios() {
     c.controller = sim::StandardController(kind);
     all.push_back({std::string("fig1_") + cname, c});
   }
+  // issue 18: trot from μ = 1 across an icy patch and off it again (front feet on it from about
+  // 2.4 s, hind feet off it at about 9 s)
+  for (auto [sname, source] : {std::pair{"assumed", sim::MuSource::kAssumed},
+                               std::pair{"oracle", sim::MuSource::kOracle},
+                               std::pair{"estimated", sim::MuSource::kEstimated}}) {
+    for (std::uint64_t seed = 1; seed <= 3; ++seed) {
+      sim::ExperimentConfig c;
+      c.reference = servo::Reference::Kind::kTrot;
+      c.duration_s = 10.0;
+      c.mu = 1.0;
+      c.patches = {PatchOfIce()};
+      c.mu_source = source;
+      c.controller = sim::StandardController(ControllerKind::kTwoStageId);
+      c.seed = seed;
+      c.initial_perturbation_rad = 0.02;
+      all.push_back({std::string("patch_") + sname + "_s" + std::to_string(seed), c});
+    }
+  }
   sim::ExperimentConfig t;
   t.reference = servo::Reference::Kind::kTrot;
   t.duration_s = 60.0;
@@ -82,6 +113,75 @@ std::vector<Scenario> Scenarios() {
   all.push_back({"timing_trot60_two_stage", t});
   for (auto& s : all) s.cfg.name = s.name;
   return all;
+}
+
+// Issue 18's table: per μ source, mean and spread over the seeds on the patch, and the
+// estimate's settling after each change of the ground under a foot.
+void WritePatchTable(const nlohmann::json& results, std::ostream& md) {
+  struct Acc {
+    std::vector<double> err, slip, all_err;
+    int falls = 0, runs = 0;
+    std::vector<int> down_footfalls, up_footfalls;  // onto the ice, off it
+    std::vector<double> down_lag, up_lag;
+    int unsettled = 0;
+  };
+  std::map<std::string, Acc> by;
+  for (const auto& [name, r] : results.items()) {
+    if (!r.contains("patch")) continue;
+    Acc& a = by[r["patch"]["mu_source"].get<std::string>()];
+    ++a.runs;
+    a.falls += r["fell"].get<bool>() ? 1 : 0;
+    a.err.push_back(r["patch"]["mean_error_rad"].get<double>());
+    a.slip.push_back(r["patch"]["mean_slip_speed_m_s"].get<double>());
+    a.all_err.push_back(r["mean_error_rad"].get<double>());
+    for (const auto& st : r["patch"]["settling"]) {
+      const bool down = st["to_mu"].get<double>() < st["from_mu"].get<double>();
+      const int n = st["footfalls"].get<int>();
+      if (n < 0) {
+        ++a.unsettled;
+        continue;
+      }
+      (down ? a.down_footfalls : a.up_footfalls).push_back(n);
+      (down ? a.down_lag : a.up_lag).push_back(st["lag_s"].get<double>());
+    }
+  }
+  if (by.empty()) return;
+  auto stats = [](const std::vector<double>& v) {
+    double mean = 0, lo = v.empty() ? 0 : v[0], hi = lo;
+    for (double x : v) {
+      mean += x;
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    char b[64];
+    std::snprintf(b, sizeof(b), "%.4f (%.4f–%.4f)", v.empty() ? 0.0 : mean / static_cast<double>(v.size()), lo, hi);
+    return std::string(b);
+  };
+  auto worst = [](const auto& v) {
+    return v.empty() ? std::string("–") : std::to_string(*std::max_element(v.begin(), v.end()));
+  };
+  auto worst_s = [](const std::vector<double>& v) {
+    if (v.empty()) return std::string("–");
+    char b[32];
+    std::snprintf(b, sizeof(b), "%.2f", *std::max_element(v.begin(), v.end()));
+    return std::string(b);
+  };
+  md << "\nIssue 18: trot from μ = 1 across an icy patch (μ = 0.1) and off it; mean (min–max) over "
+        "the seeds; on the patch = cycles with a stance foot on it\n\n"
+        "| controller's μ | runs | falls | mean error on the patch (rad) | mean stance-foot slip on "
+        "the patch (m/s) | mean error, whole run (rad) | footfalls to settle onto / off the ice "
+        "(worst) | settling time onto / off the ice, worst (s) | changes never settled |\n"
+        "|---|---|---|---|---|---|---|---|---|\n";
+  for (const char* src : {"assumed", "oracle", "estimated"}) {
+    if (!by.count(src)) continue;
+    const Acc& a = by[src];
+    const bool est = std::string(src) == "estimated";
+    md << "| " << src << " | " << a.runs << " | " << a.falls << " | " << stats(a.err) << " | "
+       << stats(a.slip) << " | " << stats(a.all_err) << " | "
+       << (est ? worst(a.down_footfalls) + " / " + worst(a.up_footfalls) : std::string("–"))
+       << " | " << (est ? worst_s(a.down_lag) + " / " + worst_s(a.up_lag) : std::string("–"))
+       << " | " << (est ? std::to_string(a.unsettled) : std::string("–")) << " |\n";
+  }
 }
 
 // The paper's comparisons, ours beside them (docs/experiments.md explains the differences).
@@ -148,6 +248,7 @@ void WriteTables(nlohmann::json& results, const std::string& out_dir) {
        << " us (paper: mean 1 ms, worst 36 ms)\n";
   }
   (void)fell;
+  WritePatchTable(results, md);
 }
 
 }  // namespace
@@ -168,6 +269,9 @@ int main(int argc, char** argv) {
       return 0;
     } else if (a == "--all") {
       all = true;
+    } else if (a == "--patch") {
+      for (const auto& s : scenarios)
+        if (s.name.rfind("patch_", 0) == 0) wanted.push_back(s.name);
     } else if (a == "--record-id") {
       record_id = true;
     } else if (a == "--scenario" && i + 1 < argc) {
@@ -241,6 +345,17 @@ int main(int argc, char** argv) {
                        {"torque_total_variation_Nm", r.torque_total_variation},
                        {"fallbacks", {{"stage1_failed", r.fallbacks.stage1_failed}, {"stage2_failed", r.fallbacks.stage2_failed}}},
                        {"realtime_factor", s.cfg.duration_s / wall}};
+    if (!s.cfg.patches.empty()) {
+      nlohmann::json settling = nlohmann::json::array();
+      for (const auto& st : r.settling)
+        settling.push_back({{"foot", st.foot}, {"t_s", st.t_s}, {"from_mu", st.from_mu},
+                            {"to_mu", st.to_mu}, {"footfalls", st.footfalls}, {"lag_s", st.lag_s}});
+      results[s.name]["patch"] = {{"mu_source", sim::ToString(s.cfg.mu_source)},
+                                  {"cycles", r.patch_cycles},
+                                  {"mean_error_rad", r.patch_mean_error_rad},
+                                  {"mean_slip_speed_m_s", r.patch_mean_slip_speed},
+                                  {"settling", settling}};
+    }
     std::fprintf(stderr, "\r[%zu/%zu] %-26s mean error %.4f rad, slip %.4f m/s%s, %.0fx real time\n",
                  i + 1, run.size(), s.name.c_str(), r.mean_error_rad, r.mean_slip_speed,
                  r.fell ? " FELL" : "", s.cfg.duration_s / wall);

@@ -7,6 +7,9 @@ fig1_torques.png    torque profiles, Stage I only vs Stage I + II, through conta
 fig2_mu0.1.png      norm of the joint tracking error, trot (top) and Figure-Eight (bottom),
                     PID / no-slip ID / two-stage ID, with a histogram at right, mu = 0.1
 fig3_mu1.0.png      the same on mu = 1.0
+fig_patch_mu.png    issue 18: a trot across an icy patch, the estimated (and Stage I's) vs the
+                    true mu per foot over time, and the tracking error with mu assumed,
+                    given by an oracle and estimated
 """
 import csv
 import os
@@ -81,6 +84,52 @@ def torque_figure(out_dir):
     plt.close(fig)
 
 
+FEET = ["lf", "rf", "lh", "rh"]
+SOURCES = {"assumed": dict(color="tab:red", label="μ = 1 assumed"),
+           "oracle": dict(color="tab:green", label="true μ per foot (oracle)"),
+           "estimated": dict(color="tab:blue", label="μ estimated online")}
+
+
+def patch_figure(out_dir, seed="s1"):
+    est = load(os.path.join(out_dir, f"patch_estimated_{seed}.csv"))
+    fig, axes = plt.subplots(5, 1, figsize=(10, 11), sharex=True,
+                             gridspec_kw={"height_ratios": [1, 1, 1, 1, 1.4]})
+    t = est["t"]
+    for leg, ax in enumerate(axes[:4]):
+        ax.plot(t, est[f"mu_true{leg}"], color="black", linewidth=1.4, label="true μ under the foot")
+        ax.plot(t, est[f"mu_estimate{leg}"], color="tab:blue", linewidth=1.1, label="estimate μ̂")
+        ax.plot(t, est[f"mu_control{leg}"], color="tab:blue", linestyle=":", linewidth=1.0,
+                label="Stage I's μ, (1 − margin) μ̂")
+        slip = [v if int(s) else float("nan") for v, s in zip(est[f"mu_estimate{leg}"], est[f"slipping{leg}"])]
+        ax.plot(t, slip, "o", color="tab:red", markersize=2.5, label="slip detected")
+        # stance shading: the reference's stance
+        start = None
+        for k in range(len(t)):
+            on = int(est[f"stance{leg}"][k])
+            if on and start is None:
+                start = t[k]
+            if (not on or k == len(t) - 1) and start is not None:
+                ax.axvspan(start, t[k], color="0.93", zorder=0)
+                start = None
+        ax.set_ylabel(f"{FEET[leg]} μ")
+        ax.set_ylim(0, 1.1)
+    axes[0].legend(loc="lower left", fontsize=7, ncol=4)
+    axes[0].set_title(f"Issue 18: trot across an icy patch (μ = 0.1) and off it ({seed}; grey: stance)")
+    ax = axes[4]
+    for src, style in SOURCES.items():
+        path = os.path.join(out_dir, f"patch_{src}_{seed}.csv")
+        if os.path.exists(path):
+            d = load(path)
+            ax.plot(d["t"], d["error_norm"], linewidth=1.0, **style)
+    ax.set_yscale("log")
+    ax.set_ylabel("‖q_ref − q‖ (rad)")
+    ax.set_xlabel("time (s)")
+    ax.legend(loc="upper left", fontsize=8)
+    fig.tight_layout()
+    fig.savefig(os.path.join(out_dir, "fig_patch_mu.png"), dpi=100)
+    plt.close(fig)
+
+
 def main():
     if len(sys.argv) != 2 or sys.argv[1] in ("-h", "--help"):
         print(__doc__)
@@ -95,6 +144,9 @@ def main():
                for t in ["trot", "eight"] for c in STYLE):
             error_figure(out_dir, mu, name)
             made.append(name)
+    if os.path.exists(os.path.join(out_dir, "patch_estimated_s1.csv")):
+        patch_figure(out_dir)
+        made.append("fig_patch_mu.png")
     if not made:
         print(f"plot.py: no hyq-experiment CSV files in {out_dir}", file=sys.stderr)
         return 1

@@ -10,6 +10,7 @@
 #include "hyq_lcm/lcmt_hyq_command.hpp"
 #include "hyq_lcm/lcmt_hyq_signed_command.hpp"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
+#include "hyq_lcm/lcmt_hyq_friction_estimate.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
 #include "hyq_lcm/lcmt_hyq_joint_state.hpp"
@@ -116,6 +117,22 @@ void Visit(const hyq_lcm::lcmt_hyq_contact_state& m, Csv& c) {
   c.Field("stage2_iterations", "count", m.stage2_iterations);
   c.Field("stage1_solve_us", "us", m.stage1_solve_us);
   c.Field("stage2_solve_us", "us", m.stage2_solve_us);
+}
+void Visit(const hyq_lcm::lcmt_hyq_friction_estimate& m, Csv& c) {
+  c.Field("utime", "us", m.utime);
+  c.Field("cycle", "count", m.cycle);
+  c.Field("enabled", "bool", m.enabled != 0);
+  c.Array("mu_estimate", "1", m.mu_estimate, kFeet);
+  c.Array("mu_control", "1", m.mu_control, kFeet);
+  c.Array("mu_upper", "1", m.mu_upper, kFeet);
+  c.Array("confidence", "1", m.confidence, kFeet);
+  c.Array("force_ratio", "1", m.force_ratio, kFeet);
+  c.Array("slip_speed_m_s", "m/s", m.slip_speed_m_s, kFeet);
+  for (int f = 0; f < 4; ++f) c.Array(std::string("force_N.") + kFeet[f], "N", m.force_N[f], kXyz);
+  for (int f = 0; f < 4; ++f) c.Field(std::string("loaded.") + kFeet[f], "bool", m.loaded[f] != 0);
+  for (int f = 0; f < 4; ++f) c.Field(std::string("slipping.") + kFeet[f], "bool", m.slipping[f] != 0);
+  c.Array("slips", "count", m.slips, kFeet);
+  c.Array("footfalls", "count", m.footfalls, kFeet);
 }
 void Visit(const hyq_lcm::lcmt_hyq_servo_timing& m, Csv& c) {
   c.Field("utime", "us", m.utime);
@@ -310,11 +327,12 @@ RowType Type(const char* name) {
 }  // namespace
 
 const RowType* FindRowType(std::span<const std::uint8_t> data) {
-  static const std::array<RowType, 9> kTypes = {
+  static const std::array<RowType, 10> kTypes = {
       Type<hyq_lcm::lcmt_hyq_joint_state>("lcmt_hyq_joint_state"),
       Type<hyq_lcm::lcmt_hyq_joint_torque>("lcmt_hyq_joint_torque"),
       Type<hyq_lcm::lcmt_hyq_base_state>("lcmt_hyq_base_state"),
       Type<hyq_lcm::lcmt_hyq_contact_state>("lcmt_hyq_contact_state"),
+      Type<hyq_lcm::lcmt_hyq_friction_estimate>("lcmt_hyq_friction_estimate"),
       Type<hyq_lcm::lcmt_hyq_servo_timing>("lcmt_hyq_servo_timing"),
       Type<hyq_lcm::lcmt_hyq_health>("lcmt_hyq_health"),
       Type<hyq_lcm::lcmt_hyq_event>("lcmt_hyq_event"),

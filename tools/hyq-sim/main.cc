@@ -51,6 +51,7 @@ struct Options {
       code == 0 ? stdout : stderr,
       "usage: hyq-sim [--config FILE] [--urdf FILE] [--interface BUS=SPEC]...\n"
       "               [--mode lockstep|realtime] [--duration S] [--mu MU] [--foot-mu A,B,C,D]\n"
+      "               [--ground-patch X0,X1,Y0,Y1,MU]...\n"
       "               [--actuator-tau S] [--actuator-rate-limit NM_S] [--load-cell-noise NM]\n"
       "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--no-hold] [--seed N]\n"
       "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
@@ -68,6 +69,8 @@ struct Options {
       "  --duration S           stop after S simulated seconds (default 0: until SIGINT/SIGTERM)\n"
       "  --mu MU                ground friction (default 1.0)\n"
       "  --foot-mu A,B,C,D      per-foot friction lf,rf,lh,rh (negative: the ground's)\n"
+      "  --ground-patch X0,X1,Y0,Y1,MU  a rectangle of the ground (world x, y in m) with friction\n"
+      "                         MU; a foot above it has that μ (repeatable; the first listed wins)\n"
       "  --actuator-tau S       actuator time constant (default 0.005; 0 = ideal)\n"
       "  --actuator-rate-limit R  torque rate limit, N·m/s (default 0 = none)\n"
       "  --load-cell-noise NM   σ of the measured joint torque, N·m (default 0)\n"
@@ -79,7 +82,8 @@ struct Options {
       "                         TARGET a device (lf_kfe, imu) or for bus-off a bus (rh); ARG\n"
       "                         frames (corrupt, drop), seconds (silent, bus-off), code (emcy).\n"
       "                         e.g. 2.5:silent:lf_kfe 3.0:corrupt:rf_hfe:20 4.0:bus-off:rh\n"
-      "  --truth FILE           ground-truth CSV (t, base pose, q, qd, applied tau, contacts)\n"
+      "  --truth FILE           ground-truth CSV (t, base pose, q, qd, applied tau, contacts,\n"
+      "                         each foot's friction)\n"
       "  --truth-every N        one truth row every N steps (default 10)\n"
       "  --summary FILE         JSON at exit (time, fell, min base height, SYNCs per bus, speed)\n"
       "  --fall-height M        base height below which the robot has fallen (default 0.3)\n"
@@ -145,6 +149,14 @@ Options Parse(int argc, char** argv) {
       if (p.size() != 4) Bad(a, "four comma-separated coefficients A,B,C,D", v);
       for (std::size_t f = 0; f < 4; ++f)
         o.robot.plant.foot_mu[f] = Number(a, p[f], -1e9, "four numbers A,B,C,D");
+    } else if (a == "--ground-patch") {
+      const std::string v = value();
+      try {
+        o.robot.plant.patches.push_back(hyq::sim::ParseGroundPatch(v, std::string(a)));
+      } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "%s: %s\n", kTool, e.what());
+        std::exit(2);
+      }
     } else if (a == "--actuator-tau") o.robot.actuator_tau_s = Number(a, value(), 0, "seconds >= 0");
     else if (a == "--actuator-rate-limit")
       o.robot.actuator_rate_limit_Nm_s = Number(a, value(), 0, "N·m/s >= 0");
@@ -245,7 +257,9 @@ int Run(const Options& o) {
       for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << p << hal::JointName(j);
     for (const char* leg : {"lf", "rf", "lh", "rh"})
       truth << ',' << leg << "_fx," << leg << "_fy," << leg << "_fz," << leg << "_touching";
-    truth << ",body_touching,holding\n";
+    truth << ",body_touching,holding";
+    for (const char* leg : {"lf", "rf", "lh", "rh"}) truth << ',' << leg << "_mu";
+    truth << '\n';
   }
   double first_step_wall = 0, last_step_wall = 0, release_wall = 0, release_t = 0;
   double next_progress = 1.0;
@@ -267,8 +281,9 @@ int Run(const Options& o) {
       for (const sim::FootContact& c : r.plant().FootContacts())
         truth << ',' << c.force_W.x() << ',' << c.force_W.y() << ',' << c.force_W.z() << ','
               << (c.touching ? 1 : 0);
-      truth << ',' << (r.plant().BodyTouchesGround() ? 1 : 0) << ',' << (r.holding() ? 1 : 0)
-            << '\n';
+      truth << ',' << (r.plant().BodyTouchesGround() ? 1 : 0) << ',' << (r.holding() ? 1 : 0);
+      for (int f = 0; f < 4; ++f) truth << ',' << r.plant().foot_friction(f);
+      truth << '\n';
     }
     if (!o.quiet && r.time_s() + 1e-9 >= next_progress) {
       next_progress += 1.0;

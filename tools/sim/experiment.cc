@@ -30,11 +30,63 @@ servo::ControllerConfig StandardController(servo::ControllerKind kind) {
   return c;
 }
 
+const char* ToString(MuSource s) noexcept {
+  switch (s) {
+    case MuSource::kAssumed: return "assumed";
+    case MuSource::kOracle: return "oracle";
+    case MuSource::kEstimated: return "estimated";
+  }
+  return "?";
+}
+
+namespace {
+
+// The estimate is "settled" on ground of true μ within this (issue 18's experiment)
+bool Settled(double estimate, double truth) {
+  return std::abs(estimate - truth) <= std::max(0.05, 0.2 * truth);
+}
+
+// Follows each foot's ground and the estimate on it: a change of the true μ under a loaded foot
+// opens a Settling entry, closed at the first loaded cycle with the estimate settled.
+class SettlingTracker {
+ public:
+  void Observe(double t, int f, bool loaded, double truth, double estimate,
+               std::vector<ExperimentResult::Settling>* out) {
+    const auto i = static_cast<std::size_t>(f);
+    if (loaded) {
+      if (has_last_[i] && std::abs(truth - last_[i]) > 1e-9) {
+        out->push_back({f, t, last_[i], truth});
+        open_[i] = static_cast<int>(out->size()) - 1;
+        footfalls_[i] = 0;
+      } else if (!was_loaded_[i] && open_[i] >= 0) {
+        ++footfalls_[i];
+      }
+      last_[i] = truth;
+      has_last_[i] = true;
+      if (open_[i] >= 0 && Settled(estimate, truth)) {
+        auto& s = (*out)[static_cast<std::size_t>(open_[i])];
+        s.lag_s = t - s.t_s;
+        s.footfalls = footfalls_[i];
+        open_[i] = -1;
+      }
+    }
+    was_loaded_[i] = loaded;
+  }
+
+ private:
+  std::array<double, 4> last_{};
+  std::array<bool, 4> has_last_{}, was_loaded_{};
+  std::array<int, 4> open_{-1, -1, -1, -1}, footfalls_{};
+};
+
+}  // namespace
+
 ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentConfig& cfg,
                                const std::function<void(double)>& progress) {
   PlantConfig pc;
   pc.ground_mu = cfg.mu;
   pc.foot_mu = cfg.foot_mu;
+  pc.patches = cfg.patches;
   Plant plant(model, pc);
   servo::Reference ref = cfg.reference == servo::Reference::Kind::kTrot
                              ? servo::Reference::Trot(model, cfg.trot)
@@ -54,6 +106,14 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
 
   servo::ContactEnvironment env;
   for (int f = 0; f < 4; ++f) env.mu[f] = cfg.foot_mu[f] >= 0 ? cfg.foot_mu[f] : cfg.mu;
+  const std::array<double, 4> base_mu = env.mu;  // the ground's away from the patches
+  servo::FrictionEstimatorConfig fc = cfg.friction;
+  fc.enabled = true;
+  servo::FrictionEstimator friction(fc);
+  SettlingTracker settling;
+  servo::VectorJ tau_measured = servo::VectorJ::Zero();  // ideal load cells: last applied torque
+  double patch_err = 0, patch_slip = 0;
+  long patch_slip_n = 0;
 
   ExperimentResult r;
   const double dt = pc.timestep_s;
@@ -72,6 +132,17 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     const auto ds = dynamics::ComputeCycleDynamics(model, q, v, dyn.get());
     servo::VectorJ tau = servo::VectorJ::Zero();
     if (ds == dynamics::DynamicsStatus::kOk) {
+      if (cfg.mu_source == MuSource::kOracle) {
+        for (int f = 0; f < 4; ++f) env.mu[static_cast<std::size_t>(f)] = plant.foot_friction(f);
+      } else if (cfg.mu_source == MuSource::kEstimated) {
+        std::array<servo::FootFrictionInput, 4> in;
+        for (int f = 0; f < 4; ++f)
+          in[static_cast<std::size_t>(f)] =
+              servo::MeasureFoot(model, *dyn, v, f, rs.joints.stance[static_cast<std::size_t>(f)],
+                                 tau_measured.segment<3>(3 * f));
+        friction.Update(in, base_mu, dt);
+        for (std::size_t f = 0; f < 4; ++f) env.mu[f] = friction.feet()[f].mu_control;
+      }
       (void)ctl.Compute(*dyn, q, v, rs.joints, env, dt, &out);
       tau = out.tau_Nm;
       if (cfg.record_id_inputs) r.id_inputs.push_back(ctl.last_input());
@@ -79,7 +150,10 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     const auto t1 = std::chrono::steady_clock::now();
     for (int j = 0; j < 12; ++j)
       tau(j) = std::clamp(tau(j), -model.limits[j].effort_Nm, model.limits[j].effort_Nm);
+    const std::array<double, 4> mu_true{plant.foot_friction(0), plant.foot_friction(1),
+                                        plant.foot_friction(2), plant.foot_friction(3)};
     plant.Step(tau);
+    tau_measured = tau;
 
     Sample s;
     s.t = t;
@@ -87,6 +161,29 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     s.q_ref = rs.joints.q;
     s.tau = tau;
     const auto contacts = plant.FootContacts();
+    bool on_patch = false;
+    double patch_slip_cycle = 0;
+    int patch_slip_feet = 0;
+    for (std::size_t f = 0; f < 4; ++f) {
+      const auto& fr = friction.feet()[f];
+      const bool estimated = cfg.mu_source == MuSource::kEstimated;
+      s.mu_true[f] = mu_true[f];
+      s.mu_control[f] = env.mu[f];
+      s.mu_estimate[f] = estimated ? fr.mu : std::nan("");
+      s.slipping[f] = estimated && fr.slipping;
+      if (estimated) settling.Observe(t, static_cast<int>(f), fr.loaded, mu_true[f], fr.mu, &r.settling);
+      if (rs.joints.stance[f] && contacts[f].touching && mu_true[f] != base_mu[f]) {
+        on_patch = true;
+        patch_slip_cycle += contacts[f].slip_velocity_W.norm();
+        ++patch_slip_feet;
+      }
+    }
+    if (on_patch) {
+      ++r.patch_cycles;
+      patch_err += (rs.joints.q - q.tail<12>()).norm();
+      patch_slip += patch_slip_cycle;
+      patch_slip_n += patch_slip_feet;
+    }
     for (int f = 0; f < 4; ++f) {
       s.contact_force_W[f] = contacts[f].force_W;
       s.touching[f] = contacts[f].touching;
@@ -120,6 +217,8 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
   }
   r.mean_error_rad = err_sum / std::max<long>(steps, 1);
   r.mean_slip_speed = slip_n ? slip_sum / slip_n : 0.0;
+  r.patch_mean_error_rad = r.patch_cycles ? patch_err / static_cast<double>(r.patch_cycles) : 0.0;
+  r.patch_mean_slip_speed = patch_slip_n ? patch_slip / static_cast<double>(patch_slip_n) : 0.0;
   switch (cfg.controller.kind) {
     case servo::ControllerKind::kTwoStageId: r.fallbacks = ctl.two_stage_counters(); break;
     case servo::ControllerKind::kStage1Id: r.fallbacks = ctl.stage1_counters(); break;
@@ -138,7 +237,10 @@ void WriteCsv(const ExperimentResult& r, const std::string& path) {
   for (int leg = 0; leg < 4; ++leg)
     f << ",f" << leg << "_x,f" << leg << "_y,f" << leg << "_z,slip" << leg << ",stance" << leg
       << ",touch" << leg;
-  f << ",error_norm,base_height,control_us,qp_us,stage1,stage2,fallback\n";
+  f << ",error_norm,base_height,control_us,qp_us,stage1,stage2,fallback";
+  for (int leg = 0; leg < 4; ++leg)
+    f << ",mu_true" << leg << ",mu_control" << leg << ",mu_estimate" << leg << ",slipping" << leg;
+  f << '\n';
   f.precision(9);
   for (const Sample& s : r.samples) {
     f << s.t;
@@ -150,7 +252,11 @@ void WriteCsv(const ExperimentResult& r, const std::string& path) {
         << ',' << s.touching[leg];
     f << ',' << s.error_norm_rad << ',' << s.base_height_m << ',' << s.control_time_us << ','
       << s.qp_time_us << ','
-      << int(s.stage1_status) << ',' << int(s.stage2_status) << ',' << int(s.fallback) << '\n';
+      << int(s.stage1_status) << ',' << int(s.stage2_status) << ',' << int(s.fallback);
+    for (std::size_t leg = 0; leg < 4; ++leg)
+      f << ',' << s.mu_true[leg] << ',' << s.mu_control[leg] << ',' << s.mu_estimate[leg] << ','
+        << s.slipping[leg];
+    f << '\n';
   }
 }
 

@@ -7,10 +7,20 @@
 #include <vector>
 
 #include "servo/control/controller.h"
+#include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
 #include "tools/sim/plant.h"
 
 namespace hyq::sim {
+
+/// Where the controller's μ per foot comes from (issue 18's experiment).
+enum class MuSource : std::uint8_t {
+  kAssumed,    // mu / foot_mu everywhere, whatever the ground under the feet is
+  kOracle,     // the plant's true μ under each foot, every cycle (a priori knowledge)
+  kEstimated,  // servo::FrictionEstimator, from the applied torques and the foot velocities;
+               // mu / foot_mu is its upper bound
+};
+const char* ToString(MuSource s) noexcept;
 
 struct ExperimentConfig {
   std::string name;
@@ -20,6 +30,9 @@ struct ExperimentConfig {
   double duration_s = 4.0;
   double mu = 1.0;                        // ground friction (plant and controller)
   std::array<double, 4> foot_mu{-1, -1, -1, -1};
+  std::vector<GroundPatch> patches;       // the plant's friction patches (the controller's μ: mu_source)
+  MuSource mu_source = MuSource::kAssumed;
+  servo::FrictionEstimatorConfig friction;  // for kEstimated (enabled is implied)
   servo::ControllerConfig controller;
   std::uint64_t seed = 1;                 // initial-state perturbation
   double initial_perturbation_rad = 0.0;  // random joint offsets at t = 0
@@ -41,6 +54,8 @@ struct Sample {
   double control_time_us;                // dynamics + controller, wall clock
   double qp_time_us;                     // Stage I + Stage II solves (the paper's timing)
   std::uint8_t stage1_status, stage2_status, fallback;
+  std::array<double, 4> mu_true, mu_control, mu_estimate;  // plant, Stage I, estimator (or NaN)
+  std::array<bool, 4> slipping;          // the estimator's slip flag
 };
 
 struct ExperimentResult {
@@ -51,6 +66,19 @@ struct ExperimentResult {
   double mean_slip_speed = 0.0;          // over stance feet that touch
   double torque_total_variation = 0.0;   // Σ‖τ_k − τ_{k−1}‖, N·m (Fig. 1's chatter)
   servo::FallbackCounters fallbacks;
+  // on ground with patches: the cycles in which a stance foot touched a patch (its μ differs
+  // from the ground's), and the estimate's settling after each change of the ground under a foot
+  long patch_cycles = 0;
+  double patch_mean_error_rad = 0.0, patch_mean_slip_speed = 0.0;
+  struct Settling {
+    int foot;
+    double t_s;            // the first loaded cycle on the new ground
+    double from_mu, to_mu;  // true μ before and after
+    int footfalls = -1;    // footfalls on the new ground before the one in which the estimate
+                           // first came within tolerance (0: the first); -1: never in the run
+    double lag_s = -1.0;   // from t_s to that cycle; -1: never
+  };
+  std::vector<Settling> settling;        // kEstimated only
   std::vector<servo::IdInput> id_inputs;  // when ExperimentConfig::record_id_inputs
 };
 

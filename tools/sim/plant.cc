@@ -4,6 +4,8 @@
 #include <cstring>
 #include <functional>
 #include <sstream>
+#include <stdexcept>
+#include <cstdlib>
 
 #include <Eigen/Geometry>
 #include <mujoco/mujoco.h>
@@ -121,8 +123,33 @@ std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config) {
   return x.str();
 }
 
+GroundPatch ParseGroundPatch(const std::string& text, const std::string& what) {
+  GroundPatch p;
+  double* fields[] = {&p.x0_m, &p.x1_m, &p.y0_m, &p.y1_m, &p.mu};
+  std::size_t start = 0;
+  for (int i = 0; i < 5; ++i) {
+    const std::size_t comma = text.find(',', start);
+    const bool last = i == 4;
+    if (last != (comma == std::string::npos))
+      throw std::invalid_argument(what + ": expected five numbers X0,X1,Y0,Y1,MU, found '" +
+                                  text + "'");
+    const std::string field = text.substr(start, last ? std::string::npos : comma - start);
+    char* end = nullptr;
+    *fields[i] = std::strtod(field.c_str(), &end);
+    if (field.empty() || end != field.c_str() + field.size() || !std::isfinite(*fields[i]))
+      throw std::invalid_argument(what + ": expected a number for field " + std::to_string(i + 1) +
+                                  " of X0,X1,Y0,Y1,MU, found '" + field + "'");
+    start = comma + 1;
+  }
+  if (!(p.x0_m < p.x1_m) || !(p.y0_m < p.y1_m))
+    throw std::invalid_argument(what + ": expected X0 < X1 and Y0 < Y1, found '" + text + "'");
+  if (p.mu < 0.0)
+    throw std::invalid_argument(what + ": expected MU >= 0, found '" + text + "'");
+  return p;
+}
+
 Plant::Plant(const dynamics::Model& model, const PlantConfig& config)
-    : mjcf_(MakeMjcf(model, config)) {
+    : mjcf_(MakeMjcf(model, config)), patches_(config.patches) {
   mjVFS vfs;
   mj_defaultVFS(&vfs);
   if (mj_makeEmptyFileVFS(&vfs, "hyq.xml", static_cast<int>(mjcf_.size())) != 0)
@@ -138,6 +165,7 @@ Plant::Plant(const dynamics::Model& model, const PlantConfig& config)
     foot_geom_[f] = mj_name2id(m_, mjOBJ_GEOM, model.feet[f].name.c_str());
     foot_pair_[f] = mj_name2id(m_, mjOBJ_PAIR, (model.feet[f].name + "_floor").c_str());
     foot_body_[f] = m_->geom_bodyid[foot_geom_[f]];
+    base_mu_[static_cast<std::size_t>(f)] = FootMu(config, f);
   }
   const int gyro = mj_name2id(m_, mjOBJ_SENSOR, "imu_gyro");
   const int accel = mj_name2id(m_, mjOBJ_SENSOR, "imu_accel");
@@ -156,11 +184,31 @@ void Plant::Reset(const dynamics::VectorQ& q, const dynamics::VectorV& v) {
   Eigen::Map<dynamics::VectorQ>(d_->qpos) = q;
   Eigen::Map<dynamics::VectorV>(d_->qvel) = v;
   mj_forward(m_, d_);
+  ApplyPatches();
 }
 
 void Plant::Step(const dynamics::VectorJ& tau_Nm) {
   for (int j = 0; j < dynamics::kNumJoints; ++j) d_->ctrl[j] = tau_Nm(j);
   mj_step(m_, d_);
+  ApplyPatches();
+}
+
+// each foot's contact pair takes the μ of the ground under the sphere's centre (geom_xpos is
+// the state the next step starts from)
+void Plant::ApplyPatches() {
+  if (patches_.empty()) return;
+  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+    const mjtNum* p = d_->geom_xpos + 3 * foot_geom_[f];
+    const double mu = FrictionAt(f, p[0], p[1]);
+    m_->pair_friction[5 * foot_pair_[f] + 0] = mu;
+    m_->pair_friction[5 * foot_pair_[f] + 1] = mu;
+  }
+}
+
+double Plant::FrictionAt(int foot, double x, double y) const {
+  for (const GroundPatch& p : patches_)
+    if (p.Contains(x, y)) return p.mu;
+  return base_mu_[static_cast<std::size_t>(foot)];
 }
 
 dynamics::VectorQ Plant::q() const { return Eigen::Map<const dynamics::VectorQ>(d_->qpos); }
@@ -188,8 +236,10 @@ bool Plant::BodyTouchesGround() const {
 }
 
 void Plant::SetFootFriction(int foot, double mu) {
+  base_mu_[static_cast<std::size_t>(foot)] = mu;
   m_->pair_friction[5 * foot_pair_[foot] + 0] = mu;
   m_->pair_friction[5 * foot_pair_[foot] + 1] = mu;
+  ApplyPatches();
 }
 double Plant::foot_friction(int foot) const { return m_->pair_friction[5 * foot_pair_[foot]]; }
 

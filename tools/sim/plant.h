@@ -7,6 +7,7 @@
 #include <array>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "dynamics/model.h"
 
@@ -15,11 +16,28 @@ struct mjData_;
 
 namespace hyq::sim {
 
+/// A rectangle of the ground with a friction of its own (issue 18: an icy patch), world x-y, m.
+/// Where patches overlap, the first one listed wins.
+struct GroundPatch {
+  double x0_m = 0.0, x1_m = 0.0, y0_m = 0.0, y1_m = 0.0;
+  double mu = 1.0;
+  bool Contains(double x, double y) const noexcept {
+    return x >= x0_m && x <= x1_m && y >= y0_m && y <= y1_m;
+  }
+};
+
+/// Parses "X0,X1,Y0,Y1,MU" (hyq-sim --ground-patch); throws std::invalid_argument naming `what`,
+/// the form expected and what was found.
+GroundPatch ParseGroundPatch(const std::string& text, const std::string& what);
+
 struct PlantConfig {
   double timestep_s = 1e-3;
   double ground_mu = 1.0;
   /// Per-foot friction (lf, rf, lh, rh); negative: the ground's.
   std::array<double, 4> foot_mu{-1.0, -1.0, -1.0, -1.0};
+  /// Friction patches: a foot whose sphere centre is above a patch (x-y) has the patch's μ, at
+  /// every step; elsewhere the foot's own (foot_mu) or the ground's.
+  std::vector<GroundPatch> patches;
   /// Adds MuJoCo's gyro and accelerometer at the IMU site (model.imu) for Plant::Imu(). Costs
   /// mj_rnePostConstraint per step (MuJoCo runs it for acceleration sensors); off by default.
   bool imu_sensor = false;
@@ -67,9 +85,14 @@ class Plant {
   ImuReading Imu() const;
   /// Whether any geom other than the feet (trunk, legs) touches the ground.
   bool BodyTouchesGround() const;
-  /// The foot's friction coefficient with the ground (changes take effect at the next step).
+  /// The foot's friction coefficient with the ground away from the patches (changes take
+  /// effect at the next step).
   void SetFootFriction(int foot, double mu);
+  /// The friction coefficient the foot has now: its patch's, or the one SetFootFriction set.
   double foot_friction(int foot) const;
+  /// The ground's friction at world (x, y) for this foot: the first patch there, else the
+  /// foot's own (the oracle of issue 18's experiment).
+  double FrictionAt(int foot, double x, double y) const;
 
   /// The generated MJCF (for inspection and for MuJoCo's own tools).
   const std::string& mjcf() const { return mjcf_; }
@@ -81,6 +104,9 @@ class Plant {
   mjModel_* m_ = nullptr;
   mjData_* d_ = nullptr;
   std::array<int, 4> foot_geom_{}, foot_pair_{}, foot_body_{};
+  std::array<double, 4> base_mu_{};
+  std::vector<GroundPatch> patches_;
+  void ApplyPatches();
   int floor_geom_ = -1;
   int gyro_adr_ = -1, accel_adr_ = -1;
 };
