@@ -446,8 +446,14 @@ servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
   ReadReference(r, root, c);
 
   const YAML::Node op = Section(r, root, "operation");
-  r.Keys(op, "operation", {"auto_enable"});
+  r.Keys(op, "operation", {"auto_enable", "stand_up_s", "sit_down_s", "crouch_height_m",
+                           "sit_damping_Nms_per_rad"});
   c.auto_enable = BoolOr(r, op, "operation", "auto_enable", c.auto_enable);
+  c.stand_up_s = Bounded(r, op, "operation", "stand_up_s", c.stand_up_s, 0.0, 30.0);
+  c.sit_down_s = Bounded(r, op, "operation", "sit_down_s", c.sit_down_s, 0.0, 30.0);
+  c.crouch_height_m = Bounded(r, op, "operation", "crouch_height_m", c.crouch_height_m, 0.34, 0.6);
+  c.sit_damping_Nms_per_rad = Bounded(r, op, "operation", "sit_damping_Nms_per_rad",
+                                      c.sit_damping_Nms_per_rad, 0.0, kMaxKdTau);
 
   ReadRest(r, root, base_dir, c);
 

@@ -113,7 +113,10 @@ sim = json.load(open(os.path.join(out, "sim.json"))) if os.path.exists(os.path.j
 # the trot is judged while the daemon was ACTIVE: after its controlled stop (damping, then zero
 # torque) the robot sits down, which is the point of the stop, not a fall
 t_stop = sim.get("released_at_s", 0.0) + s["active_s"]
-fell = bool(sim.get("fell")) and sim.get("fell_at_s", 0.0) < t_stop - 1e-9
+# any ground contact of the trunk or a leg while ACTIVE is a failure; after the stop began, a
+# slow upright one is the robot sitting down (hyq-sim tells the two apart)
+contact_at = sim["fell_at_s"] if sim.get("fell") else sim["sat_down_at_s"] if sim.get("sat_down") else None
+fell = contact_at is not None and contact_at < t_stop - 1e-9
 print(f"HIL run ({s['controller']}, {s['clock']}): {s['active_s']:.2f} s active, final mode {s['final_mode']}, daemon exit {rc}")
 print(f"  tracking error   mean {s['tracking_error_mean_rad']:.4f} rad, max {s['tracking_error_max_rad']:.4f} rad")
 print(f"  QP solve time    mean {s['qp_time_mean_us']:.1f} us, max {s['qp_time_max_us']:.1f} us; fallbacks {s['controller_fallbacks']} ({s.get('controller_fallbacks_deadline', 0)} on the time budget, {s.get('controller_fallbacks_deadline_stalled', 0)} of them a stalled thread)")
@@ -133,8 +136,13 @@ if sim.get("mode") == "realtime":
           f"{'SCHED_FIFO %d' % st['priority'] if st.get('fifo') else 'SCHED_OTHER'}, "
           f"{'CPU %d' % st['cpu'] if st.get('cpu', -1) >= 0 else 'not pinned'}")
 if sim:
-    after = f" (it sat down at {sim['fell_at_s']:.2f} s, after the stop began)" if sim.get("fell") and not fell else ""
-    print(f"  robot            {'FELL at %.2f s' % sim['fell_at_s'] if fell else 'did not fall while active'}{after}; "
+    after = ""
+    if not fell and sim.get("fell"):
+        after = f" (it FELL at {sim['fell_at_s']:.2f} s, after the stop began)"
+    elif not fell and sim.get("sat_down"):
+        after = (f" (it sat down at {sim['sat_down_at_s']:.2f} s, after the stop began, at "
+                 f"{sim.get('contact_speed_m_s', 0):.2f} m/s)")
+    print(f"  robot            {'FELL or sat down at %.2f s' % contact_at if fell else 'did not fall while active'}{after}; "
           f"{sim.get('simulated_time_s', 0):.2f} s simulated at {sim.get('speed', 0):.1f}x real time")
 print(f"  files            {out}: servod.json sim.json truth.csv" + (" telemetry.lcmlog" if os.path.exists(os.path.join(out, 'telemetry.lcmlog')) else ""))
 json.dump({"fell_while_active": fell, "t_stop_s": t_stop}, open(os.path.join(out, "hil.json"), "w"))

@@ -51,6 +51,12 @@ struct ServoConfig {
   FigureEightParams figure_eight;
   double enable_ramp_s = 0.5;           // blend from the measured posture to the reference
   bool auto_enable = false;             // STANDBY → ACTIVE without an operator command
+  // stand up and sit down (servo/reference/posture.h): 0 s = off (the enable ramp from the
+  // measured posture; a stop damps at once)
+  double stand_up_s = 0.0;              // after enable: from the resting crouch to standing height
+  double sit_down_s = 0.0;              // a controlled stop or disable: down to the crouch first
+  double crouch_height_m = 0.40;        // base height of the crouch the robot sits down to
+  double sit_damping_Nms_per_rad = 150.0;  // the damping after a sit-down (a fault's: safety.*)
   double duration_s = 0.0;              // ACTIVE time after which the daemon stops; 0 = never
   RealtimeConfig realtime;
   DeadlineConfig deadline;

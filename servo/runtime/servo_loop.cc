@@ -66,6 +66,7 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       deadline_(config.deadline, config.period_s()),
       estimator_(model, config.estimator, config.period_s()),
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
+      posture_(std::make_unique<PostureMove>(model)),
       controller_(std::make_unique<Controller>(model, ForClock(config.controller, config.clock))),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
       friction_(config.friction),
@@ -118,6 +119,13 @@ void ServoLoop::BeginCycle(std::int64_t now_ns) noexcept {
 void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
   ServoCommand cmd;
   for (int i = 0; i < 4 && sink_ != nullptr && sink_->PopCommand(&cmd); ++i) {
+    // a disable while ACTIVE sits down first when configured (then damps, then 0 N·m)
+    if (cmd.kind == ServoCommand::Kind::kDisable && safety_.mode() == ServoMode::kActive &&
+        config_.sit_down_s > 0.0) {
+      RequestSitDown(AfterSit::kDisable);
+      ++stats_.commands_applied;
+      continue;
+    }
     switch (ApplyCommand(cmd, est_status_, command_targets_)) {
       case CommandOutcome::kRejected:
         ++stats_.commands_rejected;
@@ -135,7 +143,62 @@ void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
     ++stats_.commands_applied;
   }
   if (safety_.MaybeAutoEnable(est_status_ == EstimatorStatus::kOk)) EnterActive();
-  if (stop_requested_.load(std::memory_order_relaxed)) safety_.Stop();
+  if (stop_requested_.load(std::memory_order_relaxed)) {
+    if (safety_.mode() == ServoMode::kActive && config_.sit_down_s > 0.0) {
+      RequestSitDown(AfterSit::kStop);
+    } else {
+      safety_.Stop();
+    }
+  }
+}
+
+// a sit-down starts when the reference has every foot on the ground (a trot: within half a gait
+// cycle), at the latest after 1 s; a stop overrides a pending disable
+void ServoLoop::RequestSitDown(AfterSit then) noexcept {
+  if (phase_ == Phase::kSitDown) return;
+  if (!sit_pending_ || then == AfterSit::kStop) after_sit_ = then;
+  sit_pending_ = true;
+  const auto& st = joint_ref_.stance;
+  const bool all_down = st[0] && st[1] && st[2] && st[3];
+  if (all_down || phase_ == Phase::kStandUp || sit_wait_s_ >= 1.0) {
+    sit_pending_ = false;
+    sit_wait_s_ = 0.0;
+    BeginSitDown(after_sit_);
+  }
+}
+
+// the controlled stop's first part: from the measured posture down to the crouch, with the
+// feet of the reference's stance on the ground and the others lowered onto it
+void ServoLoop::BeginSitDown(AfterSit then) noexcept {
+  VectorJ q;
+  for (int j = 0; j < kNumJoints; ++j) q(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
+  // the reference's base velocity (a trot's), in the base frame, is braked to rest (stand-up:
+  // none)
+  if (phase_ == Phase::kStandUp) ref_.base = BaseReference{};
+  const double c = std::cos(ref_.base.yaw), s = std::sin(ref_.base.yaw);
+  const Eigen::Vector2d v0_B(c * ref_.base.v_W.x() + s * ref_.base.v_W.y(),
+                             -s * ref_.base.v_W.x() + c * ref_.base.v_W.y());
+  posture_->Start(q, joint_ref_.stance, config_.crouch_height_m, config_.sit_down_s, v0_B);
+  phase_ = Phase::kSitDown;
+  phase_t_ = 0.0;
+  after_sit_ = then;
+  safety_.Note(then == AfterSit::kStop ? EventReason::kStopRequest : EventReason::kDisableCommand,
+               "sitting down to the crouch first");
+}
+
+// the end of a stand-up (the reference starts) or of a sit-down (the deferred request)
+void ServoLoop::AdvancePhase() noexcept {
+  if (phase_ == Phase::kReference || phase_t_ < posture_->duration_s()) return;
+  if (phase_ == Phase::kStandUp) {
+    phase_ = Phase::kReference;
+    t_ref_ = 0.0;
+    q0_ = joint_ref_.q;  // the enable ramp blends from the stand-up's end to the reference
+    return;
+  }
+  sat_down_ = true;
+  if (after_sit_ == AfterSit::kStop) safety_.Stop();
+  else (void)safety_.Damp();  // damping, then STANDBY at 0 N·m
+  phase_ = Phase::kReference;
 }
 
 void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
@@ -152,10 +215,27 @@ void ServoLoop::EnterActive() noexcept {
   for (int j = 0; j < kNumJoints; ++j)
     q0_(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
   reference_->Sample(0.0, &ref_);
+  phase_ = Phase::kReference;
+  phase_t_ = 0.0;
+  sat_down_ = false;
+  sit_pending_ = false;
+  sit_wait_s_ = 0.0;
+  if (config_.stand_up_s > 0.0) {
+    // from the resting posture, every foot on the ground, up to the reference's height
+    posture_->Start(q0_, {true, true, true, true}, ref_.base.p_W.z(), config_.stand_up_s);
+    phase_ = Phase::kStandUp;
+  }
 }
 
 void ServoLoop::SampleReference() noexcept {
   if (safety_.mode() != ServoMode::kActive) return;  // the reference holds still outside ACTIVE
+  if (phase_ != Phase::kReference) {
+    if (!posture_->Sample(phase_t_, &joint_ref_))
+      safety_.Report(MakeFault(EventReason::kControllerFailure, -1, -1,
+                               "%s: a leg's inverse kinematics failed",
+                               phase_ == Phase::kStandUp ? "stand-up" : "sit-down"));
+    return;
+  }
   reference_->Sample(t_ref_, &ref_);
   joint_ref_ = ref_.joints;
   // enable ramp: from the posture measured at enable to the reference (smoothstep)
@@ -218,7 +298,9 @@ void ServoLoop::EstimateFriction() noexcept {
 }
 
 void ServoLoop::Damping() noexcept {
-  const double D = config_.safety.damping_Nms_per_rad;
+  // after a sit-down the legs fold onto their stops under stronger damping; a fault's stays
+  const double D = sat_down_ && !safety_.damping_for_fault() ? config_.sit_damping_Nms_per_rad
+                                                              : config_.safety.damping_Nms_per_rad;
   for (int j = 0; j < kNumJoints; ++j) {
     const auto& in = hal_.image().joints[static_cast<std::size_t>(j)];
     tau_(j) = in.valid() && std::isfinite(in.velocity_rad_s) ? -D * in.velocity_rad_s : 0.0;
@@ -267,9 +349,19 @@ void ServoLoop::EndCycle(const SafetyDecision& d, std::int64_t wakeup_latency_ns
     const double qp_us = 1e6 * (out_.stage1.solve_time_s + out_.stage2.solve_time_s);
     stats_.qp_time_sum_us += qp_us;
     stats_.qp_time_max_us = std::max(stats_.qp_time_max_us, qp_us);
-    t_ref_ += dt_;
     active_time_ += dt_;
-    if (config_.duration_s > 0.0 && active_time_ >= config_.duration_s) RequestStop();
+    if (sit_pending_) {
+      sit_wait_s_ += dt_;
+      RequestSitDown(after_sit_);  // the next cycle's reference decides; this one's may too
+    }
+    if (phase_ == Phase::kReference) {
+      t_ref_ += dt_;
+      // the run's duration is reference time: the stand-up and the sit-down come on top
+      if (config_.duration_s > 0.0 && t_ref_ >= config_.duration_s) RequestStop();
+    } else {
+      phase_t_ += dt_;
+      AdvancePhase();
+    }
   }
 }
 

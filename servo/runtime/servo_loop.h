@@ -19,6 +19,7 @@
 #include "servo/control/controller.h"
 #include "servo/estimation/estimator.h"
 #include "servo/estimation/friction_estimator.h"
+#include "servo/reference/posture.h"
 #include "servo/reference/reference.h"
 #include "servo/runtime/command_rules.h"
 #include "servo/runtime/deadline_monitor.h"
@@ -124,6 +125,12 @@ class ServoLoop {
                         ServoMode mode) noexcept;
 
   void EstimateFriction() noexcept;
+  // ACTIVE's phases: stand-up, the reference, sit-down (then the deferred stop or disable)
+  enum class Phase : std::uint8_t { kStandUp, kReference, kSitDown };
+  enum class AfterSit : std::uint8_t { kStop, kDisable };
+  void RequestSitDown(AfterSit then) noexcept;
+  void BeginSitDown(AfterSit then) noexcept;
+  void AdvancePhase() noexcept;
   void EnterActive() noexcept;
   void Damping() noexcept;
   void FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept;
@@ -140,6 +147,13 @@ class ServoLoop {
   DeadlineMonitor deadline_;
   StateEstimator estimator_;
   std::unique_ptr<Reference> reference_;
+  std::unique_ptr<PostureMove> posture_;
+  Phase phase_ = Phase::kReference;
+  AfterSit after_sit_ = AfterSit::kStop;
+  double phase_t_ = 0.0;  // time in the stand-up or sit-down
+  bool sat_down_ = false;  // the damping that follows is the sit-down's, not a fault's
+  bool sit_pending_ = false;  // a sit-down waits for the gait to have every foot down
+  double sit_wait_s_ = 0.0;
   std::unique_ptr<Controller> controller_;
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
   ContactEnvironment env_;     // configured or commanded μ (the estimate's upper bound)

@@ -143,6 +143,7 @@ case "$mode" in
     [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "hil.sh exit $rc"; }
     check_json "s['final_mode'] == 'stopped' and s['active_s'] >= $dur - 0.01"
     check_json 'not h["fell_while_active"]'
+    check_json 'not sim["fell"]'   # after the stop either: it sits down (issue 19)
     check_json 's["tracking_error_mean_rad"] <= 1.5 * 0.031'
     # lock-step deadlines are the servo thread's CPU time; the loopback multicast's softirq work
     # (the other process's frames too) is charged to the sending thread now and then, a few ms
@@ -263,9 +264,13 @@ PY
     [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log"; fail "hil.sh exit $rc after SIGTERM"; }
     grep -q "Terminated: controlled stop" "$out/servod.log" || true
     check_json 's["final_mode"] == "stopped"'
-    check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['reason'] == 'stop_request'"
-    check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['to'] == 'damping'"
+    # issue 19: the stop sits the robot down to the crouch first (an event without a mode
+    # change), then damps, then 0 N·m; hyq-sim sees it sit down, slowly, not fall
+    check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['detail'] == 'sitting down to the crouch first'"
+    check_json "[e for e in s['event_log'] if e['from'] == 'active' and e['to'] != 'active'][0]['reason'] == 'stop_request'"
+    check_json "[e for e in s['event_log'] if e['from'] == 'active' and e['to'] != 'active'][0]['to'] == 'damping'"
     check_json "s['event_log'][-1]['to'] == 'stopped'"
+    check_json 'not sim["fell"] and sim["sat_down"] and sim["contact_speed_m_s"] <= 0.5'
     decode_log
     ;;
   commands)

@@ -44,9 +44,17 @@ inline void StandingPd(const dynamics::Model& model, hal::ProcessImage& image, d
   }
 }
 
+/// The simulated robot held standing (these tests' master is a joint PD about the standing
+/// posture; hyq-sim's default start is the resting crouch the daemon stands up from).
+inline sim::SimulatedRobotConfig Standing() {
+  sim::SimulatedRobotConfig rc;
+  rc.start_height_m = 0.0;
+  return rc;
+}
+
 /// HAL and SimulatedRobot in one thread over loopback buses. Master clock = simulated time.
 struct LoopbackRig {
-  explicit LoopbackRig(const sim::SimulatedRobotConfig& rc = {}) : cfg(HilHalConfig()) {
+  explicit LoopbackRig(const sim::SimulatedRobotConfig& rc = Standing()) : cfg(HilHalConfig()) {
     std::vector<hal::CanChannel*> m, d;
     for (const hal::BusConfig& b : cfg.buses) {
       wires.push_back(std::make_unique<hal::LoopbackBus>(b.name, 2, 256, true));

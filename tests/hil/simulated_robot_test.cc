@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "dynamics/cycle_dynamics.h"
 #include "hal/calibration.h"
 #include "tests/hil/hil_rig.h"
 #include "tests/support/no_heap_guard.h"
@@ -64,7 +65,7 @@ TEST(SimulatedRobot, HalReadsThePlantAnglesWithinOneEncoderCount) {
 }
 
 std::vector<double> RunTruth(std::uint64_t seed) {
-  sim::SimulatedRobotConfig rc;
+  sim::SimulatedRobotConfig rc = Standing();
   rc.seed = seed;
   rc.load_cell_noise_Nm = 1.0;
   rc.encoder_noise_rad = 1e-4;
@@ -95,7 +96,7 @@ TEST(SimulatedRobot, LockStepIsDeterministicBitForBit) {
 
 TEST(SimulatedRobot, ActuatorStepResponseReaches63PercentAtTau) {
   for (double tau : {0.005, 0.02}) {
-    sim::SimulatedRobotConfig rc;
+    sim::SimulatedRobotConfig rc = Standing();
     rc.actuator_tau_s = tau;
     LoopbackRig rig(rc);
     rig.BringUp();
@@ -114,7 +115,7 @@ TEST(SimulatedRobot, ActuatorStepResponseReaches63PercentAtTau) {
     EXPECT_NEAR(reached_at, expected, 1) << "tau " << tau;
   }
   // rate limit and saturation
-  sim::SimulatedRobotConfig rc;
+  sim::SimulatedRobotConfig rc = Standing();
   rc.actuator_tau_s = 0;
   rc.actuator_rate_limit_Nm_s = 20'000;  // 20 N·m per step
   LoopbackRig rig(rc);
@@ -128,7 +129,7 @@ TEST(SimulatedRobot, ActuatorStepResponseReaches63PercentAtTau) {
 }
 
 TEST(SimulatedRobot, LoadCellNoiseHasTheConfiguredStandardDeviation) {
-  sim::SimulatedRobotConfig rc;
+  sim::SimulatedRobotConfig rc = Standing();
   rc.load_cell_noise_Nm = 2.0;
   rc.seed = 42;
   LoopbackRig rig(rc);
@@ -169,7 +170,7 @@ TEST(SimulatedRobot, ImuAtRestReadsGravityUpsideDownAndNoRotation) {
   EXPECT_NEAR(imu.accel_m_s2[1], 0.0, 1e-5);
   for (double g : imu.gyro_rad_s) EXPECT_NEAR(g, 0.0, 1e-6);
   // standing on its own feet (MuJoCo's accelerometer and gyro at the site): the same, nearly
-  sim::SimulatedRobotConfig rc;
+  sim::SimulatedRobotConfig rc = Standing();
   rc.hold = false;
   LoopbackRig free(rc);
   free.BringUp();
@@ -280,7 +281,7 @@ TEST(SimulatedRobot, FaultSpecErrorsNameWhatWasExpectedAndFound) {
 
 TEST(SimulatedRobot, LockStepCycleDoesNotAllocate) {
   HYQ_REQUIRE_HEAP_HOOKS();
-  sim::SimulatedRobotConfig rc;
+  sim::SimulatedRobotConfig rc = Standing();
   rc.load_cell_noise_Nm = 1.0;
   rc.gyro_noise_rad_s = 0.01;
   LoopbackRig rig(rc);
@@ -318,6 +319,30 @@ TEST(SimulatedRobot, RealTimeModeStepsAtTheCyclePeriodOnTheMonotonicClock) {
   EXPECT_GE(wall, 0.2 - 1e-3) << "physics ran ahead of the wall clock";
   EXPECT_LT(wall, 0.2 + 0.01 * static_cast<double>(rig.robot->counters().realtime_overruns) + 0.5);
   EXPECT_TRUE(rig.robot->holding()) << "no master: still on its stand";
+}
+
+// Issue 19: by default the robot starts in its resting crouch (feet on the ground under their
+// standing places, base at 0.40 m), which the daemon stands up from
+TEST(SimulatedRobot, StartsRestingInACrouchWithTheFeetOnTheGround) {
+  LoopbackRig rig(sim::SimulatedRobotConfig{});
+  EXPECT_TRUE(rig.robot->holding());
+  const dynamics::VectorQ q = rig.robot->plant().q();
+  EXPECT_NEAR(q(2), 0.40, 1e-12);
+  auto dyn = std::make_unique<dynamics::CycleDynamics>();
+  ASSERT_EQ(dynamics::ComputeCycleDynamics(HilModel(), q, dynamics::VectorV::Zero(), dyn.get()),
+            dynamics::DynamicsStatus::kOk);
+  auto standing = std::make_unique<dynamics::CycleDynamics>();
+  ASSERT_EQ(dynamics::ComputeCycleDynamics(HilModel(), HilModel().StandingQ(),
+                                           dynamics::VectorV::Zero(), standing.get()),
+            dynamics::DynamicsStatus::kOk);
+  for (int f = 0; f < 4; ++f) {
+    const auto i = static_cast<std::size_t>(f);
+    EXPECT_NEAR(dyn->feet.p_WF_W[i].z(), HilModel().feet[i].radius_m, 1e-6) << f;
+    // under the standing posture's footholds (x, y)
+    EXPECT_NEAR((dyn->feet.p_WF_W[i] - standing->feet.p_WF_W[i]).head<2>().norm(), 0.0, 1e-6) << f;
+  }
+  EXPECT_FALSE(rig.robot->fell());
+  EXPECT_FALSE(rig.robot->sat_down());
 }
 
 }  // namespace

@@ -81,7 +81,8 @@ TEST(HyqSimTool, LockStepAgainstAHalMasterWritesItsSummary) {
   HYQ_REQUIRE_NETNS();
   const std::string dir = ::testing::TempDir();
   const std::string summary = dir + "/hyq_sim_summary.json", truth = dir + "/hyq_sim_truth.csv";
-  std::vector<std::string> args = {HYQ_SIM_TOOL, "--duration", "0.5", "--summary", summary,
+  std::vector<std::string> args = {HYQ_SIM_TOOL, "--duration", "0.5", "--start-height", "0",
+                                   "--summary", summary,
                                    "--truth", truth, "--truth-every", "50", "--quiet",
                                    "--fault", "0.4:drop:lf_haa:2"};
   std::vector<char*> argv;

@@ -27,8 +27,16 @@ bool Safe(ServoMode m) {
 // The rig runs cycles back to back on a shared test machine: the wall-clock deadline policy is
 // off here (a preempted cycle is not what these tests are about; timing is for the benchmarks
 // and the deadline case below).
+// The shipped file with the posture moves off: a stop damps at once, a disable is immediate
+// (the stand-up and sit-down have their own tests below)
+ServoConfig NoPostureMoves(ServoConfig c) {
+  c.stand_up_s = 0.0;
+  c.sit_down_s = 0.0;
+  return c;
+}
+
 ServoConfig ActiveConfig() {
-  ServoConfig c = testing::DefaultServoConfig();
+  ServoConfig c = NoPostureMoves(testing::DefaultServoConfig());
   c.auto_enable = true;
   c.deadline.max_consecutive_misses = 1000;
   return c;
@@ -242,7 +250,7 @@ TEST(ServoLoop, AcknowledgeBringsFaultBackToStandbyOnlyWhenClean) {
 }
 
 TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
-  ServoRig rig(testing::DefaultServoConfig());
+  ServoRig rig(NoPostureMoves(testing::DefaultServoConfig()));
   rig.BringUpAndStart();
   rig.Steps(3);
   ServoCommand mu{.kind = ServoCommand::Kind::kSetMu};
@@ -289,6 +297,56 @@ TEST(ServoLoop, ControlledStopEndsWithDevicesInPreOp) {
   for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->nmt_state(j), hal::NmtState::kPreOperational) << j;
 }
 
+// Issue 19: enable stands the robot up first (the reference waits), a controlled stop sits it
+// down to the crouch first (then damping, then PRE-OP), a disable likewise (then STANDBY)
+TEST(ServoLoop, StandsUpAfterEnableAndSitsDownBeforeTheStop) {
+  ServoConfig cfg = testing::DefaultServoConfig();
+  cfg.auto_enable = true;
+  cfg.deadline.max_consecutive_misses = 1000;
+  cfg.reference = Reference::Kind::kTrot;
+  cfg.stand_up_s = 0.5;
+  cfg.sit_down_s = 0.4;
+  ServoRig rig(cfg);
+  rig.BringUpAndStart();
+  rig.Steps(5);
+  ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
+  // standing up: the reference's clock has not started
+  rig.Steps(300);
+  EXPECT_DOUBLE_EQ(rig.sink.last.reference_time_s, 0.0);
+  rig.Steps(400);
+  EXPECT_GT(rig.sink.last.reference_time_s, 0.1);
+  rig.sink.events.clear();
+  rig.loop->RequestStop();
+  int n = 0;
+  bool sat_in_active = false;
+  while (!rig.loop->finished() && n < 5000) {
+    rig.Step();
+    ++n;
+    if (n == 300) sat_in_active = rig.loop->mode() == ServoMode::kActive;
+  }
+  ASSERT_TRUE(rig.loop->finished());
+  EXPECT_TRUE(sat_in_active) << "the sit-down runs the controller";
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kStopped);
+  // at most half a gait cycle's wait for all four feet down, 0.4 s down, 1 s damping, PRE-OP
+  EXPECT_GE(n, 400 + 1000);
+  EXPECT_LT(n, 400 + 400 + 1000 + 600);
+  bool noted = false;
+  for (const auto& e : rig.sink.events)
+    noted = noted || std::string(e.detail.data()).find("sitting down") != std::string::npos;
+  EXPECT_TRUE(noted);
+  // a disable while ACTIVE: the sit-down, damping, then STANDBY at 0 N·m
+  ServoRig again(cfg);
+  again.BringUpAndStart();
+  again.Steps(800);
+  ASSERT_EQ(again.loop->mode(), ServoMode::kActive);
+  again.sink.commands.push_back({.kind = ServoCommand::Kind::kDisable});
+  again.Steps(200);
+  EXPECT_EQ(again.loop->mode(), ServoMode::kActive);
+  again.Steps(1800);
+  EXPECT_EQ(again.loop->mode(), ServoMode::kStandby);
+  for (int j = 0; j < 12; ++j) EXPECT_EQ(again.emu->torque_setpoint_Nm(j), 0.0) << j;
+}
+
 TEST(ServoLoop, FullCyclesDoNotTouchTheHeap) {
   HYQ_REQUIRE_HEAP_HOOKS();
   for (const auto kind : {ControllerKind::kTwoStageId, ControllerKind::kNoSlipId, ControllerKind::kPid}) {
@@ -296,18 +354,21 @@ TEST(ServoLoop, FullCyclesDoNotTouchTheHeap) {
     cfg.controller.kind = kind;
     cfg.reference = Reference::Kind::kTrot;
     cfg.friction.enabled = true;  // the friction estimator in the cycle too (issue 18)
+    cfg.stand_up_s = 0.3;         // and the stand-up and sit-down (issue 19)
+    cfg.sit_down_s = 0.3;
     ServoRig rig(cfg);
     rig.BringUpAndStart();
     rig.Steps(5);  // first touches (lazy static initialisation in libraries) outside the guard
     {
       testing::NoHeapGuard guard;
-      rig.Steps(1500);  // stand, then trot steps: stance changes, the QPs' sizes change
+      rig.Steps(1500);  // stand up, then trot steps: stance changes, the QPs' sizes change
       ASSERT_EQ(rig.loop->mode(), ServoMode::kActive) << ToString(kind);
-      // a fault path too: damping, events, the state requests
+      rig.loop->RequestStop();  // the sit-down, then damping
+      rig.Steps(800);
+      EXPECT_EQ(rig.loop->mode(), ServoMode::kDamping) << ToString(kind);
+      // a fault path too: events, the state requests
       rig.emu->joint_faults(3).silent = true;
-      rig.Steps(20);
-      rig.loop->RequestStop();
-      rig.Steps(20);
+      rig.Steps(40);
       EXPECT_EQ(guard.allocations(), 0u) << ToString(kind);
     }
     EXPECT_GT(rig.loop->stats().active_cycles, 1000u);

@@ -53,7 +53,8 @@ struct Options {
       "               [--mode lockstep|realtime] [--duration S] [--mu MU] [--foot-mu A,B,C,D]\n"
       "               [--ground-patch X0,X1,Y0,Y1,MU]...\n"
       "               [--actuator-tau S] [--actuator-rate-limit NM_S] [--load-cell-noise NM]\n"
-      "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--no-hold] [--seed N]\n"
+      "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--no-hold]\n"
+      "               [--start-height M] [--seed N]\n"
       "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
       "               [--summary FILE] [--fall-height M] [--rt-priority P] [--cpu N|auto]\n"
       "               [--quiet]\n"
@@ -77,6 +78,9 @@ struct Options {
       "  --encoder-noise RAD    σ added to the joint angle before quantisation (default 0)\n"
       "  --imu-noise G[,A]      σ of the gyro (rad/s) and accelerometer (m/s²) (default 0,0)\n"
       "  --no-hold              do not hold the robot on its stand until all outputs are enabled\n"
+      "  --start-height M       the posture it is held in: base height with the feet on the ground\n"
+      "                         (default 0.40: HyQ's resting crouch, which the daemon stands up\n"
+      "                         from; 0: the standing posture)\n"
       "  --seed N               sensor-noise seed (default 1)\n"
       "  --fault T:KIND:TARGET[:ARG]  at simulated time T: silent|corrupt|drop|nan|bus-off|emcy;\n"
       "                         TARGET a device (lf_kfe, imu) or for bus-off a bus (rh); ARG\n"
@@ -86,7 +90,9 @@ struct Options {
       "                         each foot's friction)\n"
       "  --truth-every N        one truth row every N steps (default 10)\n"
       "  --summary FILE         JSON at exit (time, fell, min base height, SYNCs per bus, speed)\n"
-      "  --fall-height M        base height below which the robot has fallen (default 0.3)\n"
+      "  --fall-height M        the base below this height, or the trunk or a leg on the ground,\n"
+      "                         is a ground contact (default 0.2): a sit-down when the base comes\n"
+      "                         down at most 0.5 m/s with the trunk upright, else a fall\n"
       "  --rt-priority P        realtime mode: SCHED_FIFO priority of the stepping thread, below\n"
       "                         the servo thread's 80, with mlockall (default 70; 0: SCHED_OTHER)\n"
       "  --cpu N|auto           realtime mode: pin the stepping thread to CPU N (-1: do not pin;\n"
@@ -169,6 +175,12 @@ Options Parse(int argc, char** argv) {
       o.robot.gyro_noise_rad_s = Number(a, p[0], 0, "GYRO[,ACCEL] >= 0");
       if (p.size() == 2) o.robot.accel_noise_m_s2 = Number(a, p[1], 0, "GYRO[,ACCEL] >= 0");
     } else if (a == "--no-hold") o.robot.hold = false;
+    else if (a == "--start-height") {
+      const std::string v = value();
+      const double h = Number(a, v, 0, "0 or a base height in [0.34, 0.62] m");
+      if (h != 0.0 && (h < 0.34 || h > 0.62)) Bad(a, "0 or a base height in [0.34, 0.62] m", v);
+      o.robot.start_height_m = h;
+    }
     else if (a == "--seed") {
       const std::string v = value();
       char* end = nullptr;
@@ -328,6 +340,10 @@ int Run(const Options& o) {
       << "  \"fell\": " << (robot.fell() ? "true" : "false") << ",\n"
       << "  \"fell_at_s\": " << (robot.fell() ? robot.fell_at_s() : 0.0) << ",\n"
       << "  \"min_base_height_m\": " << robot.min_base_height_m() << ",\n"
+      << "  \"max_descent_speed_m_s\": " << robot.max_descent_speed_m_s() << ",\n"
+      << "  \"sat_down\": " << (robot.sat_down() ? "true" : "false") << ",\n"
+      << "  \"sat_down_at_s\": " << (robot.sat_down() ? robot.sat_down_at_s() : 0.0) << ",\n"
+      << "  \"contact_speed_m_s\": " << robot.contact_speed_m_s() << ",\n"
       << "  \"syncs_per_bus\": {";
     for (std::size_t b = 0; b < cfg.buses.size(); ++b)
       s << (b ? ", " : "") << JsonString(cfg.buses[b].name) << ": " << c.syncs[b];

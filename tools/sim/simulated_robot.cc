@@ -13,6 +13,8 @@
 
 #include "hal/clock.h"
 #include "hal/config_error.h"
+#include "servo/reference/reference.h"
+#include "hal/config_error.h"
 #include "hal/protocol.h"
 
 namespace hyq::sim {
@@ -77,6 +79,18 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
   pc.imu_sensor = true;
   plant_ = std::make_unique<Plant>(model, pc);
   q_hold_ = model.StandingQ();
+  if (cfg.start_height_m > 0.0) {
+    // the resting posture: the standing feet's places, the base lowered, by the legs' IK
+    servo::Reference rest = servo::Reference::Stand(model, cfg.start_height_m);
+    servo::ReferenceSample s;
+    rest.Sample(0.0, &s);
+    if (s.ik != dynamics::IkStatus::kOk)
+      throw hal::ConfigError("simulated robot: start height " + std::to_string(cfg.start_height_m) +
+                             " m: expected a height the legs reach with the feet on the ground, found " +
+                             dynamics::ToString(s.ik));
+    q_hold_(2) = cfg.start_height_m;
+    q_hold_.tail<dynamics::kNumJoints>() = s.joints.q;
+  }
   plant_->Reset(q_hold_, dynamics::VectorV::Zero());
   R_BF_ = model.imu.R_BF;
   UpdateSensors();
@@ -182,9 +196,20 @@ void SimulatedRobot::Step() noexcept {
   ++counters_.steps;
   const double z = plant_->q()(2);
   min_base_height_m_ = std::min(min_base_height_m_, z);
-  if (!fell_ && !holding_ && (z < cfg_.fall_height_m || plant_->BodyTouchesGround())) {
-    fell_ = true;
-    fell_at_s_ = time_s();
+  if (!holding_) max_descent_m_s_ = std::max(max_descent_m_s_, -plant_->v()(2));
+  if (!fell_ && !holding_) {
+    const dynamics::VectorQ q = plant_->q();
+    const double up = Eigen::Quaterniond(q(3), q(4), q(5), q(6)).toRotationMatrix()(2, 2);
+    const bool contact = z < cfg_.fall_height_m || plant_->BodyTouchesGround();
+    if (contact && !sat_down_) {
+      contact_speed_m_s_ = -plant_->v()(2);
+      const bool gentle = contact_speed_m_s_ <= cfg_.max_sit_speed_m_s && up > std::cos(M_PI / 6);
+      (gentle ? sat_down_ : fell_) = true;
+      (gentle ? sat_down_at_s_ : fell_at_s_) = time_s();
+    } else if (sat_down_ && up < std::cos(M_PI / 4)) {
+      fell_ = true;  // sat down, then tipped over
+      fell_at_s_ = time_s();
+    }
   }
   UpdateSensors();
   if (observer_) observer_(*this);

@@ -60,9 +60,17 @@ struct SimulatedRobotConfig {
   double accel_noise_m_s2 = 0.0;          // σ per axis
   Eigen::Vector3d gyro_bias_rad_s = Eigen::Vector3d::Zero();     // IMU frame
   Eigen::Vector3d accel_bias_m_s2 = Eigen::Vector3d::Zero();     // IMU frame
-  bool hold = true;                       // hold at the standing posture until all enabled
+  bool hold = true;                       // hold at the start posture until all enabled
+  /// The start posture: base height with the feet on the ground under their standing places
+  /// (0: standing). Default: HyQ's resting crouch, from which the daemon stands it up.
+  double start_height_m = 0.40;
   std::uint64_t seed = 1;                 // sensor noise and the emulator's random drops
-  double fall_height_m = 0.3;             // base below this height counts as fallen
+  /// Ground contact: the trunk or a leg (not a foot) touches the ground, or the base is below
+  /// this height. It is a sit-down when the base comes down no faster than max_sit_speed_m_s
+  /// and the trunk is upright (tilt < 30°), a fall otherwise; after a sit-down, a tilt past 45°
+  /// is still a fall.
+  double fall_height_m = 0.2;  // the trunk within 0.1 m of the ground
+  double max_sit_speed_m_s = 0.5;
 };
 
 struct SimulatedRobotCounters {
@@ -122,8 +130,15 @@ class SimulatedRobot {
   double time_s() const noexcept;  // simulated: steps x period
   std::int64_t time_ns() const noexcept { return static_cast<std::int64_t>(counters_.steps) * period_ns_; }
   bool holding() const noexcept { return holding_; }
+  /// The largest downward speed of the base since the release, m/s.
+  double max_descent_speed_m_s() const noexcept { return max_descent_m_s_; }
   bool fell() const noexcept { return fell_; }
   double fell_at_s() const noexcept { return fell_at_s_; }
+  /// The first ground contact was slow and upright (SimulatedRobotConfig::fall_height_m).
+  bool sat_down() const noexcept { return sat_down_; }
+  double sat_down_at_s() const noexcept { return sat_down_at_s_; }
+  /// The base's downward speed at the first ground contact (fall or sit-down), m/s.
+  double contact_speed_m_s() const noexcept { return contact_speed_m_s_; }
   double min_base_height_m() const noexcept { return min_base_height_m_; }
   const dynamics::VectorJ& applied_torque_Nm() const noexcept { return tau_applied_; }
   const dynamics::VectorJ& measured_torque_Nm() const noexcept { return tau_measured_; }
@@ -161,8 +176,12 @@ class SimulatedRobot {
   SimulatedRobotCounters counters_;
   servo::LatencyHistogram step_lateness_, step_time_;  // real time only
   bool holding_;
+  double max_descent_m_s_ = 0.0;
   bool fell_ = false;
   double fell_at_s_ = 0.0;
+  bool sat_down_ = false;
+  double sat_down_at_s_ = 0.0;
+  double contact_speed_m_s_ = 0.0;
   std::function<void(const SimulatedRobot&)> observer_;
   double min_base_height_m_;
   std::uint64_t rng_;
