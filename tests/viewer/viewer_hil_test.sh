@@ -28,7 +28,7 @@ done
 
 # niced: lock-step runs as fast as two cores allow and would starve the browser (its virtual
 # clock and the daemon's CPU-time deadlines do not care how long the run takes in wall time)
-HYQ_HIL_NETNS=1 nice -n 15 "$src/scripts/hil.sh" --duration 8 --build "$build" --out "$work/hil" --quiet \
+HYQ_HIL_NETNS=1 nice -n 19 "$src/scripts/hil.sh" --duration 15 --build "$build" --out "$work/hil" --quiet \
   --sim-arg --lcm-truth
 hil_rc=$?
 cp "$work/hil/servod.log" "$work/hil/sim.log" "$art/" 2>/dev/null

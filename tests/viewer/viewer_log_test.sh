@@ -21,12 +21,15 @@ viewer_start --log "$work/hil/telemetry.lcmlog" --paused
 # HTTP garbage, an oversized header, a POST and a path outside the page: answered or dropped,
 # never a crash
 for req in $'garbage\r\n\r\n' "GET / HTTP/1.1"$'\r\n'"X: $(head -c 20000 /dev/zero | tr '\0' a)"$'\r\n\r\n' \
-           $'POST /ws HTTP/1.1\r\nContent-Length: 3\r\n\r\nabc' $'GET /../../etc/passwd HTTP/1.1\r\n\r\n'; do
+           $'POST /ws HTTP/1.1\r\nConnection: close\r\nContent-Length: 3\r\n\r\nabc' \
+           $'GET /../../etc/passwd HTTP/1.1\r\nConnection: close\r\n\r\n'; do
   ( trap '' PIPE
     exec 3<>/dev/tcp/127.0.0.1/8087 && printf '%s' "$req" >&3 && timeout 2 head -c 200 <&3 >>"$work/garbage.log"
   ) 2>/dev/null
 done
 grep -q 'root:' "$work/garbage.log" && fail "a path outside the page was served"
+grep -q '405 Method Not Allowed' "$work/garbage.log" || fail "a POST was not refused (405)"
+grep -q '404 Not Found' "$work/garbage.log" || fail "/../../etc/passwd was not refused (404)"
 kill -0 "$viewer_pid" 2>/dev/null || { cat "$work/hyq-viewer.log"; fail "hyq-viewer died on HTTP garbage"; }
 node "$src/tests/viewer/viewer_page.mjs" log http://127.0.0.1:8087/ "$art" "$work"
 page_rc=$?

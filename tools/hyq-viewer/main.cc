@@ -2,12 +2,18 @@
 // lcm-logger file) to a WebSocket: it serves one page (three.js + uPlot, bundled at build time)
 // and streams the states decimated to the page's rate, every event, and hyq-sim's truth.
 // docs/viewer.md describes the page and this command line.
+#include <fcntl.h>
+#include <sched.h>
+#include <unistd.h>
+
 #include <atomic>
 #include <chrono>
+#include <cerrno>
 #include <cmath>
 #include <csignal>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <exception>
 #include <filesystem>
 #include <functional>
@@ -39,6 +45,7 @@ struct Options {
   std::string bind = "127.0.0.1";
   int port = 8087;
   std::string lcm_url = kDefaultLcmUrl;
+  std::string lcm_netns;  // empty: this process's network namespace
   std::string log;
   bool paused = false;
   double rate_hz = 30.0;
@@ -49,7 +56,7 @@ struct Options {
 
 [[noreturn]] void Usage(int code) {
   std::fprintf(code == 0 ? stdout : stderr,
-               "usage: hyq-viewer [--bind ADDR] [--port N] [--lcm-url URL | --log FILE [--paused]]\n"
+               "usage: hyq-viewer [--bind ADDR] [--port N] [--lcm-url URL [--lcm-netns PATH] | --log FILE [--paused]]\n"
                "                  [--rate-hz HZ] [--web-dir DIR] [--urdf FILE] [--quiet]\n"
                "HyQ's telemetry in a browser, read-only: serves a page (3D robot, contacts, friction\n"
                "pyramids, slips, mode and events, plots) on http://ADDR:N/ and streams HYQ_JOINT_STATE,\n"
@@ -59,6 +66,8 @@ struct Options {
                "  --bind ADDR     address to listen on (default 127.0.0.1: this machine only)\n"
                "  --port N        TCP port, 0..65535 (default 8087; 0: any free port)\n"
                "  --lcm-url URL   LCM to subscribe to (default %s)\n"
+               "  --lcm-netns PATH  subscribe inside that network namespace (e.g. /proc/PID/ns/net of\n"
+               "                  scripts/hil.sh's hyq-sim) while serving the page in this one; root\n"
                "  --log FILE      play an lcm-logger file instead (pause, resume, seek, speed on the page)\n"
                "  --paused        with --log: start paused at the beginning\n"
                "  --rate-hz HZ    frames per second sent to the page, 1..120 (default 30)\n"
@@ -107,6 +116,9 @@ Options Parse(int argc, char** argv) {
       o.lcm_url = value();
       lcm_url_given = true;
       if (o.lcm_url.empty()) Bad(a, "an LCM URL (udpm://239.255.76.67:7667?ttl=0)", o.lcm_url);
+    } else if (a == "--lcm-netns") {
+      o.lcm_netns = value();
+      if (!std::filesystem::exists(o.lcm_netns)) Bad(a, "a network namespace file (/proc/PID/ns/net)", o.lcm_netns);
     } else if (a == "--log") {
       o.log = value();
       if (!std::filesystem::is_regular_file(o.log)) Bad(a, "a readable lcm-logger file", o.log);
@@ -125,6 +137,7 @@ Options Parse(int argc, char** argv) {
     }
   }
   if (lcm_url_given && !o.log.empty()) Bad("--lcm-url", "either --lcm-url or --log, not both", o.lcm_url);
+  if (!o.lcm_netns.empty() && !o.log.empty()) Bad("--lcm-netns", "live LCM, not --log", o.lcm_netns);
   if (o.paused && o.log.empty()) Bad("--paused", "--log FILE with it", "--paused alone");
   return o;
 }
@@ -163,6 +176,18 @@ class LcmSource {
   std::thread thread_;
 };
 
+/// Moves this thread (and the threads it starts later) into the network namespace at `path`.
+void EnterNetns(const std::string& path) {
+  const int fd = open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw std::runtime_error("--lcm-netns: cannot open '" + path + "': " + std::strerror(errno));
+  const int rc = setns(fd, CLONE_NEWNET);
+  const int err = errno;
+  close(fd);
+  if (rc != 0)
+    throw std::runtime_error("--lcm-netns: cannot enter '" + path + "': " + std::strerror(err) +
+                             " (needs root or CAP_SYS_ADMIN; expected a network namespace file)");
+}
+
 int Run(const Options& o) {
   using namespace hyq::viewer;
   TelemetryModel model;
@@ -191,13 +216,16 @@ int Run(const Options& o) {
   const asio::ip::tcp::endpoint endpoint(asio::ip::make_address(o.bind), static_cast<std::uint16_t>(o.port));
   WebServer server(io, endpoint, files, on_text);
 
+  // the page's socket is bound above, in this namespace; LCM's sockets (and the LCM thread) are
+  // made after this, in the HIL run's namespace
+  if (!o.lcm_netns.empty()) EnterNetns(o.lcm_netns);
   std::unique_ptr<LcmSource> lcm;
   if (!player) lcm = std::make_unique<LcmSource>(o.lcm_url, &model, &mutex);
   std::printf("%s: http://%s:%u/ (%s)\n", kTool,
               endpoint.address().is_v6() ? ("[" + o.bind + "]").c_str() : o.bind.c_str(),
               static_cast<unsigned>(server.port()),
               player ? ("log " + o.log + ", " + std::to_string(player->size()) + " messages").c_str()
-                     : ("live, " + o.lcm_url).c_str());
+                     : ("live, " + o.lcm_url + (o.lcm_netns.empty() ? "" : " in " + o.lcm_netns)).c_str());
   std::fflush(stdout);
 
   asio::signal_set signals(io, SIGINT, SIGTERM);

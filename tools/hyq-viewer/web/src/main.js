@@ -47,6 +47,9 @@ scene.add(new THREE.AxesHelper(0.3));
 function resize() {
   const w = window.innerWidth, h = window.innerHeight;
   camera.aspect = w / h;
+  // the plots cover the right: centre the robot in what is left of the window
+  if (w > 900) camera.setViewOffset(w, h, 220, 0, w, h);
+  else camera.clearViewOffset();
   camera.updateProjectionMatrix();
   if (renderer) renderer.setSize(w, h);
 }
@@ -74,8 +77,9 @@ fetch('hyq.urdf').then((r) => {
 }).then((text) => {
   const urdf = parseUrdf(text);
   robot = buildRobot(urdf, new THREE.MeshStandardMaterial({ color: 0xb8bcc4, metalness: 0.2, roughness: 0.6 }));
-  ghost = buildRobot(urdf, new THREE.MeshStandardMaterial({ color: 0x40d0ff, transparent: true, opacity: 0.35,
-    depthWrite: false }));
+  // the truth as a cyan wireframe: visible even where it coincides with the estimate
+  ghost = buildRobot(urdf, new THREE.MeshBasicMaterial({ color: 0x40d0ff, wireframe: true, transparent: true,
+    opacity: 0.55 }));
   ghost.root.visible = false;
   scene.add(robot.root, ghost.root);
   robot.root.position.set(0, 0, 0.6);
