@@ -208,6 +208,28 @@ async function log() {
   const p1 = await state();
   check(p1.playback.t_s === p0.playback.t_s, 'paused again: time stands still');
 
+  // the marks drawn for a frame made up by hand: stance lf, rf; rf slipping; lh slipping in swing
+  const marks = await page.evaluate(() => {
+    const v = window.hyqViewer;
+    const f = JSON.parse(JSON.stringify(v.lastFrame));
+    f.events = [];
+    f.contact.stance_estimated = [true, true, false, false];
+    f.contact.stance_count = 2;
+    f.contact.mu = [0.5, 0.9, 0.3, 0.3];
+    f.contact.contact_force_N = [[10, 0, 200], [0, 0, 150], [0, 0, 0], [0, 0, 0]];
+    f.friction = { slipping: [false, true, true, false] };
+    v.showFrame(f);
+    return { marks: v.contactMarks(), slips: document.getElementById('slips').textContent,
+      shown: document.getElementById('contacts').textContent };
+  });
+  const m = marks.marks;
+  check(m[0].arrow && m[1].arrow && !m[2].arrow && !m[3].arrow, 'force arrows on the stance feet only');
+  check(m[0].pyramid && Math.abs(m[0].pyramid_scale - 0.5) < 1e-9 && Math.abs(m[1].pyramid_scale - 0.9) < 1e-9
+    && !m[2].pyramid, `friction pyramids on the stance feet, scaled by mu (${m[0].pyramid_scale}, ${m[1].pyramid_scale})`);
+  check(!m[0].slip && m[1].slip && m[2].slip && !m[3].slip && marks.slips === 'rf lh',
+    `slip markers on rf and lh ('${marks.slips}')`);
+  check(marks.shown.startsWith('2/4 (lf rf)'), `stance shown '${marks.shown}'`);
+
   // garbage from the browser is ignored, the bridge goes on
   await page.evaluate(() => {
     const v = window.hyqViewer;

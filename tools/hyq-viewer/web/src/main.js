@@ -89,6 +89,9 @@ fetch('hyq.urdf').then((r) => {
 viewer.trunkPosition = () => (robot ? robot.root.position.toArray() : null);
 viewer.footPositions = () => (robot ? FEET.map((f) => robot.links[`${f}_foot`].getWorldPosition(new THREE.Vector3()).toArray()) : null);
 
+viewer.contactMarks = () => feet.map((g) => ({ arrow: g.arrow.visible, pyramid: g.pyramid.visible,
+  pyramid_scale: g.pyramid.scale.x, slip: g.slip.visible }));
+
 // --- plots (uPlot), last PLOT_WINDOW_S seconds of servo time ---
 const JOINT_COLORS = ['#e6194b', '#f58231', '#ffe119', '#3cb44b', '#42d4f4', '#4363d8', '#911eb4', '#f032e6',
   '#a9a9a9', '#fabed4', '#aaffc3', '#dcbeff'];
@@ -201,6 +204,8 @@ function showFrame(f) {
   if (f.playback) showPlayback(f.playback);
   plotFrame(f);
 }
+
+viewer.showFrame = showFrame;  // for tests: draw a frame made up by hand
 
 // --- playback controls (log mode) ---
 let seeking = false;
