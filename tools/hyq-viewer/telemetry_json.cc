@@ -2,6 +2,7 @@
 
 #include <climits>
 #include <exception>
+#include <string_view>
 
 #include "hyq_lcm/lcmt_hyq_base_state.hpp"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
@@ -166,6 +167,33 @@ std::optional<json> Try(std::span<const std::uint8_t> data) {
   return ToJson(msg);
 }
 
+template <class T>
+const char* Check(std::span<const std::uint8_t> data, const char* kind) {
+  T msg{};
+  return Decode(data, &msg) ? kind : nullptr;
+}
+
+// the "kind" of a well-formed state message (cheap: no JSON), null for anything else; for a
+// contact message also its QP time (µs)
+const char* StateKind(std::span<const std::uint8_t> data, double* qp_solve_us) {
+  if (data.size() < 8) return nullptr;
+  const std::int64_t h = Fingerprint(data);
+  if (h == hyq_lcm::lcmt_hyq_joint_state::getHash()) return Check<hyq_lcm::lcmt_hyq_joint_state>(data, "joint");
+  if (h == hyq_lcm::lcmt_hyq_base_state::getHash()) return Check<hyq_lcm::lcmt_hyq_base_state>(data, "base");
+  if (h == hyq_lcm::lcmt_hyq_friction_estimate::getHash())
+    return Check<hyq_lcm::lcmt_hyq_friction_estimate>(data, "friction");
+  if (h == hyq_lcm::lcmt_hyq_servo_timing::getHash()) return Check<hyq_lcm::lcmt_hyq_servo_timing>(data, "timing");
+  if (h == hyq_lcm::lcmt_hyq_joint_torque::getHash()) return Check<hyq_lcm::lcmt_hyq_joint_torque>(data, "torque");
+  if (h == hyq_lcm::lcmt_hyq_sim_truth::getHash()) return Check<hyq_lcm::lcmt_hyq_sim_truth>(data, "truth");
+  if (h == hyq_lcm::lcmt_hyq_contact_state::getHash()) {
+    hyq_lcm::lcmt_hyq_contact_state m{};
+    if (!Decode(data, &m)) return nullptr;
+    *qp_solve_us = m.stage1_solve_us + m.stage2_solve_us;
+    return "contact";
+  }
+  return nullptr;
+}
+
 }  // namespace
 
 std::string ModeName(int mode) {
@@ -200,41 +228,41 @@ bool TelemetryModel::Feed(const std::string& channel, std::span<const std::uint8
   std::string name;  // a channel from a log may be any bytes: printable ASCII for the JSON
   for (unsigned char c : channel.substr(0, 64)) name += (c > 0x20 && c < 0x7f) ? static_cast<char>(c) : '?';
   ++per_channel_[name];
+  // states: only checked and kept as bytes; TakeFrame() makes JSON of the latest one
+  double qp_us = 0.0;
+  if (const char* kind = StateKind(data, &qp_us)) {
+    if (std::string_view(kind) == "contact" && qp_us > qp_solve_max_us_) qp_solve_max_us_ = qp_us;
+    latest_[kind].assign(data.begin(), data.end());
+    return true;
+  }
   std::optional<json> msg = DecodeMessage(data);
-  if (!msg) {
+  if (!msg || (*msg)["kind"] != "event") {
     ++undecodable_;
     return false;
   }
-  const std::string kind = (*msg)["kind"].get<std::string>();
-  if (kind == "event") {
-    auto key = std::make_tuple((*msg)["cycle"].get<std::int64_t>(), (*msg)["reason_code"].get<int>(),
-                               (*msg)["detail"].get<std::string>());
-    if (!seen_events_.insert(key).second) return true;  // a repeat
-    seen_order_.push_back(key);
-    if (seen_order_.size() > kSeenEventsKept) {
-      seen_events_.erase(seen_order_.front());
-      seen_order_.pop_front();
-    }
-    if (new_events_.size() >= kMaxEventsPerFrame) {
-      new_events_.pop_front();
-      ++events_dropped_;
-    }
-    recent_events_.push_back(*msg);
-    if (recent_events_.size() > kRecentEvents) recent_events_.pop_front();
-    new_events_.push_back(std::move(*msg));
-    return true;
+  // an event: every one goes out once, repeats (same cycle, reason, detail) are dropped
+  auto key = std::make_tuple((*msg)["cycle"].get<std::int64_t>(), (*msg)["reason_code"].get<int>(),
+                             (*msg)["detail"].get<std::string>());
+  if (!seen_events_.insert(key).second) return true;
+  seen_order_.push_back(key);
+  if (seen_order_.size() > kSeenEventsKept) {
+    seen_events_.erase(seen_order_.front());
+    seen_order_.pop_front();
   }
-  if (kind == "contact") {
-    const double qp_us = (*msg)["qp_solve_us"].get<double>();
-    if (qp_us > qp_solve_max_us_) qp_solve_max_us_ = qp_us;
+  if (new_events_.size() >= kMaxEventsPerFrame) {
+    new_events_.pop_front();
+    ++events_dropped_;
   }
-  latest_[kind] = std::move(*msg);
+  recent_events_.push_back(*msg);
+  if (recent_events_.size() > kRecentEvents) recent_events_.pop_front();
+  new_events_.push_back(std::move(*msg));
   return true;
 }
 
 json TelemetryModel::TakeFrame() {
   json frame = {{"type", "frame"}, {"seq", ++seq_}};
-  for (const auto& [kind, msg] : latest_) frame[kind] = msg;
+  for (const auto& [kind, bytes] : latest_)
+    if (std::optional<json> msg = DecodeMessage(bytes)) frame[kind] = std::move(*msg);
   frame["events"] = json::array();
   for (json& e : new_events_) frame["events"].push_back(std::move(e));
   new_events_.clear();

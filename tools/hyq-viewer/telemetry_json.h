@@ -13,6 +13,7 @@
 #include <span>
 #include <string>
 #include <tuple>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -50,7 +51,7 @@ class TelemetryModel {
   std::uint64_t undecodable() const noexcept { return undecodable_; }
 
  private:
-  std::map<std::string, nlohmann::json> latest_;  // kind -> message
+  std::map<std::string, std::vector<std::uint8_t>> latest_;  // kind -> the last well-formed message
   std::deque<nlohmann::json> new_events_;
   std::deque<nlohmann::json> recent_events_;  // the last kRecentEvents, for a page that joins late
   std::set<std::tuple<std::int64_t, int, std::string>> seen_events_;  // (cycle, reason, detail)
