@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # hyq-viewer live beside a HIL run: headless Chromium (playwright-core) opens the page, then
-# scripts/hil.sh trots for a few seconds with hyq-sim's truth on LCM (--sim-arg --lcm-truth).
+# scripts/hil.sh trots for 15 s (lock-step, niced: ~6 s of wall time) in the same network
+# namespace with hyq-sim's truth on LCM (--sim-arg --lcm-truth).
 # viewer_page.mjs checks that the page connects, that the drawn robot moves as it trots, that the
 # stance count shown equals HYQ_CONTACT of the same cycle in lcm-logger's record, that the truth
 # ghost appears and that the page's commands are ignored (read-only).
