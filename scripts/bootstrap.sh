@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# Installs the Debian 12 packages this project needs. Idempotent: when everything is present it
-# only runs dpkg-query and exits in well under a second.
+# Installs the Debian 12 packages this project needs, then hyq-viewer's npm packages (npm ci in
+# tools/hyq-viewer/web, pinned by its package-lock.json). Idempotent: when everything is present it
+# only runs dpkg-query and compares two timestamps, and exits in well under a second.
 #
 #   scripts/bootstrap.sh            install what is missing
 #   scripts/bootstrap.sh --check    list what is missing, install nothing (exit 1 if anything is)
@@ -23,12 +24,15 @@ readonly PACKAGES=(
   qemu-system-x86 busybox-static kmod
   # msgpack for python-can's udp_multicast interface, libFuzzer via clang
   python3-msgpack
+  # hyq-viewer: Boost.Beast (header-only), node to bundle its page, chromium for its browser tests
+  # (npm itself: Debian's npm, or the one in a nodesource nodejs)
+  libboost-dev nodejs chromium
 )
 
 check_only=0
 case "${1:-}" in
   --check) check_only=1 ;;
-  -h|--help) sed -n '2,7p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+  -h|--help) sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
   "") ;;
   *) echo "bootstrap.sh: unknown option '$1' (expected --check or --help)" >&2; exit 2 ;;
 esac
@@ -39,12 +43,39 @@ for p in "${PACKAGES[@]}"; do
   [[ "$status" == "install ok installed" ]] || missing+=("$p")
 done
 
+# hyq-viewer's page: npm ci when node_modules is missing or older than package-lock.json
+# (npm writes node_modules/.package-lock.json on every install)
+npm_packages() {
+  local web here
+  here="$(cd "$(dirname "$0")/.." && pwd)"
+  web="$here/tools/hyq-viewer/web"
+  if [[ -d "$web/node_modules" && ! "$web/package-lock.json" -nt "$web/node_modules/.package-lock.json" ]]; then
+    echo "bootstrap: hyq-viewer's npm packages present"
+    return 0
+  fi
+  if ((check_only)); then
+    echo "bootstrap: hyq-viewer's npm packages missing or stale (npm ci in $web)"
+    return 1
+  fi
+  if ! command -v npm >/dev/null 2>&1; then
+    # Debian's nodejs comes without npm (a nodesource nodejs has it): Debian's npm then
+    echo "bootstrap: npm not found: installing Debian's npm"
+    local sudo=()
+    ((EUID != 0)) && sudo=(sudo)
+    DEBIAN_FRONTEND=noninteractive "${sudo[@]}" apt-get install -y -q --no-install-recommends npm ||
+      { echo "bootstrap: could not install npm: hyq-viewer's page will not be bundled" >&2; return 1; }
+  fi
+  (cd "$web" && npm ci --no-audit --no-fund)
+  echo "bootstrap: installed hyq-viewer's npm packages"
+}
+
 if ((${#missing[@]} == 0)); then
   echo "bootstrap: all ${#PACKAGES[@]} packages present"
+  npm_packages || exit 1
   exit 0
 fi
 echo "bootstrap: missing ${#missing[@]} package(s): ${missing[*]}"
-((check_only)) && exit 1
+((check_only)) && { npm_packages || true; exit 1; }
 
 sudo_cmd=()
 if ((EUID != 0)); then
@@ -61,3 +92,4 @@ export DEBIAN_FRONTEND=noninteractive
 "${sudo_cmd[@]}" apt-get update -q
 "${sudo_cmd[@]}" apt-get install -y -q --no-install-recommends "${missing[@]}"
 echo "bootstrap: installed ${#missing[@]} package(s)"
+npm_packages

@@ -16,6 +16,7 @@
 #include "hyq_lcm/lcmt_hyq_joint_state.hpp"
 #include "hyq_lcm/lcmt_hyq_joint_torque.hpp"
 #include "hyq_lcm/lcmt_hyq_servo_timing.hpp"
+#include "hyq_lcm/lcmt_hyq_sim_truth.hpp"
 
 namespace hyq::lcm_export {
 namespace {
@@ -133,6 +134,21 @@ void Visit(const hyq_lcm::lcmt_hyq_friction_estimate& m, Csv& c) {
   for (int f = 0; f < 4; ++f) c.Field(std::string("slipping.") + kFeet[f], "bool", m.slipping[f] != 0);
   c.Array("slips", "count", m.slips, kFeet);
   c.Array("footfalls", "count", m.footfalls, kFeet);
+}
+void Visit(const hyq_lcm::lcmt_hyq_sim_truth& m, Csv& c) {
+  c.Field("utime", "us", m.utime);
+  c.Field("step", "count", m.step);
+  c.Field("sim_time_s", "s", m.sim_time_s);
+  c.Array("position_m", "m", m.position_m, kXyz);
+  c.Array("orientation_wxyz", "1", m.orientation_wxyz, kWxyz);
+  c.Array("velocity_m_s", "m/s", m.velocity_m_s, kXyz);
+  c.Array("angular_velocity_rad_s", "rad/s", m.angular_velocity_rad_s, kXyz);
+  c.Array("q_rad", "rad", m.q_rad, kJoints);
+  for (int f = 0; f < 4; ++f)
+    c.Array(std::string("contact_force_N.") + kFeet[f], "N", m.contact_force_N[f], kXyz);
+  for (int f = 0; f < 4; ++f) c.Field(std::string("touching.") + kFeet[f], "bool", m.touching[f] != 0);
+  c.Array("mu", "1", m.mu, kFeet);
+  c.Field("holding", "bool", m.holding != 0);
 }
 void Visit(const hyq_lcm::lcmt_hyq_servo_timing& m, Csv& c) {
   c.Field("utime", "us", m.utime);
@@ -327,13 +343,14 @@ RowType Type(const char* name) {
 }  // namespace
 
 const RowType* FindRowType(std::span<const std::uint8_t> data) {
-  static const std::array<RowType, 10> kTypes = {
+  static const std::array<RowType, 11> kTypes = {
       Type<hyq_lcm::lcmt_hyq_joint_state>("lcmt_hyq_joint_state"),
       Type<hyq_lcm::lcmt_hyq_joint_torque>("lcmt_hyq_joint_torque"),
       Type<hyq_lcm::lcmt_hyq_base_state>("lcmt_hyq_base_state"),
       Type<hyq_lcm::lcmt_hyq_contact_state>("lcmt_hyq_contact_state"),
       Type<hyq_lcm::lcmt_hyq_friction_estimate>("lcmt_hyq_friction_estimate"),
       Type<hyq_lcm::lcmt_hyq_servo_timing>("lcmt_hyq_servo_timing"),
+      Type<hyq_lcm::lcmt_hyq_sim_truth>("lcmt_hyq_sim_truth"),
       Type<hyq_lcm::lcmt_hyq_health>("lcmt_hyq_health"),
       Type<hyq_lcm::lcmt_hyq_event>("lcmt_hyq_event"),
       Type<hyq_lcm::lcmt_hyq_command>("lcmt_hyq_command"),

@@ -7,15 +7,20 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
 #include <fstream>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <vector>
+
+#include <lcm/lcm-cpp.hpp>
 
 #include "config/hal_config_loader.h"
 #include "drivers/channel_factory.h"
@@ -24,10 +29,13 @@
 #include "servo/runtime/realtime_thread.h"
 #include "tools/sim/fault_spec.h"
 #include "tools/sim/simulated_robot.h"
+#include "hyq_lcm/lcmt_hyq_sim_truth.hpp"
 
 namespace {
 
 constexpr const char* kTool = "hyq-sim";
+constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
+constexpr const char* kTruthChannel = "HYQ_SIM_TRUTH";
 
 struct Options {
   std::string config = HYQ_DEFAULT_HAL_CONFIG;
@@ -39,6 +47,8 @@ struct Options {
   std::vector<std::string> faults;
   std::string truth, summary;
   int truth_every = 10;
+  std::string lcm_truth_url;  // empty: no HYQ_SIM_TRUTH
+  int lcm_truth_every = 10;
   bool quiet = false;
   // real time only: the stepping thread below the servo thread (SCHED_FIFO 80), memory locked,
   // on CPU 0 where two cores exist (the daemon's servo thread takes the last one)
@@ -56,6 +66,7 @@ struct Options {
       "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--no-hold]\n"
       "               [--start-height M] [--seed N]\n"
       "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
+      "               [--lcm-truth [URL]] [--lcm-truth-every N]\n"
       "               [--summary FILE] [--fall-height M] [--rt-priority P] [--cpu N|auto]\n"
       "               [--quiet]\n"
       "The simulated HyQ: the MuJoCo plant behind HyQ's actuator boards and IMU on CAN, driven\n"
@@ -89,6 +100,9 @@ struct Options {
       "  --truth FILE           ground-truth CSV (t, base pose, q, qd, applied tau, contacts,\n"
       "                         each foot's friction)\n"
       "  --truth-every N        one truth row every N steps (default 10)\n"
+      "  --lcm-truth [URL]      publish the truth as lcmt_hyq_sim_truth on HYQ_SIM_TRUTH (default\n"
+      "                         URL %s; off unless given), for hyq-viewer's ghost\n"
+      "  --lcm-truth-every N    one HYQ_SIM_TRUTH message every N steps (default 10)\n"
       "  --summary FILE         JSON at exit (time, fell, min base height, SYNCs per bus, speed)\n"
       "  --fall-height M        the base below this height, or the trunk or a leg on the ground,\n"
       "                         is a ground contact (default 0.2): a sit-down when the base comes\n"
@@ -97,7 +111,8 @@ struct Options {
       "                         the servo thread's 80, with mlockall (default 70; 0: SCHED_OTHER)\n"
       "  --cpu N|auto           realtime mode: pin the stepping thread to CPU N (-1: do not pin;\n"
       "                         default auto: CPU 0 where two or more cores are allowed)\n"
-      "  --quiet                no progress line on stderr\n");
+      "  --quiet                no progress line on stderr\n",
+      kDefaultLcmUrl);
   std::exit(code);
 }
 
@@ -191,6 +206,11 @@ Options Parse(int argc, char** argv) {
     else if (a == "--truth") o.truth = value();
     else if (a == "--truth-every")
       o.truth_every = static_cast<int>(Number(a, value(), 1, "an integer >= 1"));
+    else if (a == "--lcm-truth") {
+      // the URL is optional: the next argument is it unless it is another option
+      o.lcm_truth_url = i + 1 < argc && argv[i + 1][0] != '-' ? argv[++i] : kDefaultLcmUrl;
+    } else if (a == "--lcm-truth-every")
+      o.lcm_truth_every = static_cast<int>(Number(a, value(), 1, "an integer >= 1"));
     else if (a == "--summary") o.summary = value();
     else if (a == "--fall-height") o.robot.fall_height_m = Number(a, value(), 0, "metres >= 0");
     else if (a == "--rt-priority")
@@ -220,6 +240,82 @@ double WallS() { return 1e-9 * static_cast<double>(hyq::MonotonicNs()); }
 
 std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
+
+/// Publishes hyq-sim's truth on LCM from its own thread: the stepping thread only copies the
+/// latest message into a slot (a mutex held for a copy of ~500 bytes); a message not yet
+/// published when the next one comes is replaced (the newest wins, the viewer wants the present).
+class TruthPublisher {
+ public:
+  explicit TruthPublisher(const std::string& url) : lcm_(url) {
+    if (!lcm_.good()) throw std::runtime_error("--lcm-truth: cannot open LCM on '" + url + "'");
+    thread_ = std::thread([this] { Loop(); });
+  }
+  ~TruthPublisher() {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stop_ = true;
+    }
+    wake_.notify_one();
+    thread_.join();
+  }
+  void Offer(const hyq_lcm::lcmt_hyq_sim_truth& msg) {
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      slot_ = msg;
+      pending_ = true;
+    }
+    wake_.notify_one();
+  }
+  std::uint64_t published() const { return published_; }
+
+ private:
+  void Loop() {
+    hyq_lcm::lcmt_hyq_sim_truth msg;
+    for (;;) {
+      {
+        std::unique_lock<std::mutex> lock(mutex_);
+        wake_.wait(lock, [this] { return pending_ || stop_; });
+        if (!pending_) return;  // stopping, nothing owed
+        msg = slot_;
+        pending_ = false;
+      }
+      if (lcm_.publish(kTruthChannel, &msg) == 0) ++published_;
+    }
+  }
+
+  lcm::LCM lcm_;
+  std::mutex mutex_;
+  std::condition_variable wake_;
+  hyq_lcm::lcmt_hyq_sim_truth slot_{};
+  bool pending_ = false, stop_ = false;
+  std::atomic<std::uint64_t> published_{0};
+  std::thread thread_;
+};
+
+/// The plant's state as an lcmt_hyq_sim_truth.
+void FillTruth(const hyq::sim::SimulatedRobot& r, hyq_lcm::lcmt_hyq_sim_truth* m) {
+  const hyq::dynamics::VectorQ q = r.plant().q();
+  const hyq::dynamics::VectorV v = r.plant().v();
+  m->sim_time_s = r.time_s();
+  m->utime = static_cast<std::int64_t>(std::llround(r.time_s() * 1e6));
+  m->step = static_cast<std::int64_t>(r.counters().steps);
+  for (int i = 0; i < 3; ++i) m->position_m[i] = q(i);
+  for (int i = 0; i < 4; ++i) m->orientation_wxyz[i] = q(3 + i);
+  for (int i = 0; i < 3; ++i) m->velocity_m_s[i] = v(i);
+  for (int i = 0; i < 3; ++i) m->angular_velocity_rad_s[i] = v(3 + i);
+  for (int j = 0; j < hyq::hal::kNumJoints; ++j) m->q_rad[j] = q(7 + j);
+  int f = 0;
+  for (const hyq::sim::FootContact& c : r.plant().FootContacts()) {
+    if (f >= 4) break;
+    m->contact_force_N[f][0] = c.force_W.x();
+    m->contact_force_N[f][1] = c.force_W.y();
+    m->contact_force_N[f][2] = c.force_W.z();
+    m->touching[f] = c.touching ? 1 : 0;
+    m->mu[f] = r.plant().foot_friction(f);
+    ++f;
+  }
+  m->holding = r.holding() ? 1 : 0;
+}
 
 std::string JsonString(const std::string& s) {
   std::string out = "\"";
@@ -273,6 +369,9 @@ int Run(const Options& o) {
     for (const char* leg : {"lf", "rf", "lh", "rh"}) truth << ',' << leg << "_mu";
     truth << '\n';
   }
+  std::unique_ptr<TruthPublisher> truth_lcm;
+  if (!o.lcm_truth_url.empty()) truth_lcm = std::make_unique<TruthPublisher>(o.lcm_truth_url);
+  hyq_lcm::lcmt_hyq_sim_truth truth_msg{};
   double first_step_wall = 0, last_step_wall = 0, release_wall = 0, release_t = 0;
   double next_progress = 1.0;
   robot.SetStepObserver([&](const sim::SimulatedRobot& r) {
@@ -296,6 +395,10 @@ int Run(const Options& o) {
       truth << ',' << (r.plant().BodyTouchesGround() ? 1 : 0) << ',' << (r.holding() ? 1 : 0);
       for (int f = 0; f < 4; ++f) truth << ',' << r.plant().foot_friction(f);
       truth << '\n';
+    }
+    if (truth_lcm && r.counters().steps % static_cast<std::uint64_t>(o.lcm_truth_every) == 0) {
+      FillTruth(r, &truth_msg);
+      truth_lcm->Offer(truth_msg);
     }
     if (!o.quiet && r.time_s() + 1e-9 >= next_progress) {
       next_progress += 1.0;
@@ -326,6 +429,8 @@ int Run(const Options& o) {
   else (void)robot.RunRealTime(g_stop, o.duration_s);
   const double end_wall = WallS();
   if (truth.is_open()) truth.close();
+  const std::uint64_t truth_published = truth_lcm ? truth_lcm->published() : 0;
+  truth_lcm.reset();
 
   const auto& c = robot.counters();
   const double stepping_wall = last_step_wall - first_step_wall;
@@ -373,7 +478,8 @@ int Run(const Options& o) {
       << ", \"priority\": " << (rt.fifo ? rtc.priority : 0)
       << ", \"cpu\": " << (rt.pinned ? rtc.cpu : -1)
       << ", \"memory_locked\": " << (rt.locked ? "true" : "false") << "},\n"
-      << "  \"faults_injected\": " << c.faults_injected << ",\n";
+      << "  \"faults_injected\": " << c.faults_injected << ",\n"
+      << "  \"lcm_truth_published\": " << truth_published << ",\n";
     // the boards at exit: their set-points, and whether they tripped on their own timer (a
     // silent master) and how long after the last SYNC / set-point
     int tripped = 0;
