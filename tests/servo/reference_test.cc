@@ -11,6 +11,7 @@
 #include "dynamics/cycle_dynamics.h"
 #include "servo/reference/reference.h"
 #include "tests/dynamics/hyq_fixture.h"
+#include "tests/support/no_heap_guard.h"
 
 namespace hyq::servo {
 namespace {
@@ -272,6 +273,24 @@ TEST(Reference, SteeredFootholdsAreRaibertsNeutralPoint) {
     }
     EXPECT_GE(touchdowns, 3);
   }
+}
+
+TEST(Reference, SteeringDoesNotTouchTheHeap) {
+  HYQ_REQUIRE_HEAP_HOOKS();
+  Reference ref = Reference::Trot(HyqModel(), TrotParams{});
+  ReferenceSample s;
+  ref.Sample(0.0, &s);
+  testing::NoHeapGuard guard;
+  for (int k = 1; k < 3000; ++k) {
+    ref.Sample(k * 1e-3, &s);
+    if (k == 1000) {
+      ASSERT_TRUE(ref.SetVelocity(0.2, 0.1, 0.3));
+    } else if (k == 2200) {
+      ASSERT_TRUE(ref.SetVelocity(-0.1, 0.0, -0.3));
+    }
+  }
+  ref.Sample(0.0, &s);  // restart
+  EXPECT_EQ(guard.allocations(), 0u);
 }
 
 TEST(Reference, SteeringRestartsFromRestAndOnlyTrotSteers) {
