@@ -9,8 +9,6 @@
 #include <string_view>
 #include <vector>
 
-#include <unistd.h>
-
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
@@ -78,16 +76,8 @@ int main(int argc, char** argv) {
                               std::chrono::system_clock::now().time_since_epoch())
                               .count();
   long long sequence = now_us;
-  const char* env_key = std::getenv("HYQ_COMMAND_KEY");
-  std::string key_file = env_key != nullptr && *env_key != '\0' ? env_key : "/etc/hyq/command.key";
-  std::string sender;
-  {
-    const char* user = std::getenv("USER");
-    char host[64] = "host";
-    (void)gethostname(host, sizeof host - 1);
-    sender = std::string(user != nullptr && *user != '\0' ? user : "operator") + "@" + host;
-    if (sender.size() > 63) sender.resize(63);
-  }
+  std::string key_file = hyq::servo::DefaultCommandKeyFile();
+  std::string sender = hyq::servo::DefaultCommandSender();
   std::vector<const char*> args;
   for (int i = 1; i < argc; ++i) {
     const std::string_view a = argv[i];
