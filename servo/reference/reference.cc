@@ -111,7 +111,7 @@ void DefaultTrotBase(const TrotParams& p, double t, BaseReference* b) {
 }  // namespace
 
 // The steered base: yaw(t) = yaw0 + ∫ wz in closed form; (x, y) = ∫ R_z(yaw) (vx, vy) by Simpson's
-// rule on cells of kGridS from the plan's start (the same cells whatever the calls' times), the
+// rule on the cursor's cells from the plan's start (the same cells whatever the calls' times), the
 // cursor moving a cell at a time either way.
 Eigen::Vector3d Reference::PlanPose(double t, PoseCursor* c) const noexcept {
   const auto yaw_at = [&](double tau) { return plan_pose0_.z() + ramps_[2].At(tau).integral; };
@@ -127,18 +127,19 @@ Eigen::Vector3d Reference::PlanPose(double t, PoseCursor* c) const noexcept {
   const auto simpson = [&](double a, double b) -> Eigen::Vector2d {
     return (b - a) / 6.0 * (f(a) + 4.0 * f(0.5 * (a + b)) + f(b));
   };
-  const long cell = static_cast<long>(std::floor((t - plan_t0_) / kGridS));
+  const double h = c->grid_s;
+  const long cell = static_cast<long>(std::floor((t - plan_t0_) / h));
   while (c->cell < cell) {
-    const double a = plan_t0_ + static_cast<double>(c->cell) * kGridS;
-    c->pose.head<2>() += simpson(a, a + kGridS);
+    const double a = plan_t0_ + static_cast<double>(c->cell) * h;
+    c->pose.head<2>() += simpson(a, a + h);
     ++c->cell;
   }
   while (c->cell > cell) {
     --c->cell;
-    const double a = plan_t0_ + static_cast<double>(c->cell) * kGridS;
-    c->pose.head<2>() -= simpson(a, a + kGridS);
+    const double a = plan_t0_ + static_cast<double>(c->cell) * h;
+    c->pose.head<2>() -= simpson(a, a + h);
   }
-  const double a = plan_t0_ + static_cast<double>(cell) * kGridS;
+  const double a = plan_t0_ + static_cast<double>(cell) * h;
   const Eigen::Vector2d xy = c->pose.head<2>() + simpson(a, t);
   return {xy.x(), xy.y(), yaw_at(t)};
 }
@@ -150,7 +151,8 @@ void Reference::StartPlan(double t0, const std::array<double, 3>& v0,
   plan_pose0_ = pose0;
   for (std::size_t i = 0; i < 3; ++i)
     ramps_[i] = VelocityRamp::Plan(t0, v0[i], a0[i], target_[i], trot_.max_acceleration[i]);
-  base_cursor_ = foot_cursor_ = PoseCursor{0, pose0};
+  base_cursor_ = PoseCursor{0, pose0, kGridS};
+  foot_cursor_ = PoseCursor{0, pose0, kFootGridS};
   for (auto& cache : footholds_) cache = {};
 }
 

@@ -113,8 +113,9 @@ class Reference {
  private:
   // the base pose (x, y, yaw) of the steered plan, integrated on a fixed grid from its start
   struct PoseCursor {
-    long cell = 0;  // whole cells of kGridS integrated from plan_t0_
+    long cell = 0;  // whole cells of grid_s integrated from plan_t0_
     Eigen::Vector3d pose = Eigen::Vector3d::Zero();
+    double grid_s = 1e-3;
   };
   // a foothold already chosen: leg's stance of gait cycle `cycle`
   struct Foothold {
@@ -131,7 +132,9 @@ class Reference {
   void StartPlan(double t0, const std::array<double, 3>& v0, const std::array<double, 3>& a0,
                  const Eigen::Vector3d& pose0) noexcept;
 
-  static constexpr double kGridS = 1e-3;  // quadrature cell of the turning base's position
+  // quadrature cells of the turning base's position: the base's own, and the coarser one of the
+  // footholds' prediction (36 cells to the next mid-stance instead of 360, at a lift-off)
+  static constexpr double kGridS = 1e-3, kFootGridS = 1e-2;
 
   const dynamics::Model* model_;
   dynamics::LegKinematics legs_;

@@ -31,8 +31,9 @@
 #       key enables, and a damp from it stops the trot (docs/security.md).
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR steer
 #       lock-step, mu = 0.8, the command channel on, auto-enable, 10 s of trot with the two-stage
-#       ID steered by signed hyq-command set-velocity commands sent during the run: 0.3 m/s
-#       forward once ACTIVE, then 0.2 m/s forward turning at 0.4 rad/s 2.5 s later. At the end of
+#       ID steered by signed hyq-command set-velocity commands sent during the run, paced on the
+#       simulated time (hyq-sim's truth file): 0.3 m/s forward at 3 s, then 0.2 m/s forward
+#       turning at 0.4 rad/s at 6 s (the fixed forward profile before the first). At the end of
 #       ACTIVE the base (hyq-sim's truth) is within 25 % of the commanded path's length of the
 #       commanded position and within 0.2 rad of the commanded yaw (tests/hil/steered_run.py);
 #       no fall, no fault, both commands applied (docs/steering.md).
@@ -332,13 +333,22 @@ sleep 0.2
   --reference trot --controller two_stage --mu 0.8 --duration 10 --commands \
   --command-key "$out/robot.key" --summary "$out/servod.json" 2>"$out/servod.log" &
 servod=\$!
-# the daemon's cycle from its once-a-second progress line ("hyq-servod: active, cycle N")
-cycle() { sed -n 's/^hyq-servod: active, cycle \([0-9]*\)\$/\1/p' "$out/servod.log" | tail -n 1; }
-for i in \$(seq 600); do [[ -n "\$(cycle)" ]] && break; sleep 0.1; done
-first=\$(cycle)
-[[ -n "\$first" ]] || { echo "steer: the daemon never reported active" >&2; kill -TERM \$servod \$sim; exit 1; }
+# the simulated time from hyq-sim's truth file (its last complete row; the file is written as it
+# runs, a few rows behind): lock-step runs 1-5x faster than the wall clock here, so the commands
+# are paced on the robot's time, not on sleeps
+simt() { tail -c 20000 "$out/truth.csv" 2>/dev/null | tail -n 2 | head -n 1 | cut -d, -f1; }
+wait_sim() {
+  for i in \$(seq 1200); do
+    t=\$(simt)
+    [[ "\$t" =~ ^[0-9.]+\$ ]] && awk "BEGIN { exit !(\$t >= \$1) }" && return 0
+    kill -0 \$servod 2>/dev/null || return 1
+    sleep 0.05
+  done
+  return 1
+}
+wait_sim 3 || { echo "steer: the simulation did not reach 3 s" >&2; kill -TERM \$servod \$sim; exit 1; }
 "$cmd" --key "$out/robot.key" --sender op@hil velocity 0.3 0 0
-for i in \$(seq 600); do (( \$(cycle) >= first + 2500 )) && break; sleep 0.1; done
+wait_sim 6 || { echo "steer: the simulation did not reach 6 s" >&2; kill -TERM \$servod \$sim; exit 1; }
 "$cmd" --key "$out/robot.key" --sender op@hil velocity 0.2 0 0.4
 wait \$servod; rc=\$?
 kill -TERM \$sim; wait \$sim

@@ -3,6 +3,7 @@
 // the trot's schedule, and the IK itself against the model; the same for the steered trot
 // (forward, sideways, turning, a command changed mid-ramp and mid-stride), its velocity ramps and
 // Raibert footholds.
+#include <chrono>
 #include <cmath>
 #include <vector>
 
@@ -281,8 +282,12 @@ TEST(Reference, SteeringDoesNotTouchTheHeap) {
   ReferenceSample s;
   ref.Sample(0.0, &s);
   testing::NoHeapGuard guard;
+  double worst_us = 0.0;  // printed, not judged (a shared machine)
   for (int k = 1; k < 3000; ++k) {
+    const auto t0 = std::chrono::steady_clock::now();
     ref.Sample(k * 1e-3, &s);
+    worst_us = std::max(
+        worst_us, std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - t0).count());
     if (k == 1000) {
       ASSERT_TRUE(ref.SetVelocity(0.2, 0.1, 0.3));
     } else if (k == 2200) {
@@ -291,6 +296,8 @@ TEST(Reference, SteeringDoesNotTouchTheHeap) {
   }
   ref.Sample(0.0, &s);  // restart
   EXPECT_EQ(guard.allocations(), 0u);
+  std::printf("steered, turning trot: slowest Sample %.1f us (a lift-off predicts a foothold)\n",
+              worst_us);
 }
 
 TEST(Reference, SteeringRestartsFromRestAndOnlyTrotSteers) {
