@@ -92,7 +92,8 @@ class Reference {
                                double height_m = 0.0);
 
   /// The reference at time t (s). The leg IK starts from the previous sample's angles, so call
-  /// it with increasing t as a loop does (any t works; the first call starts from standing).
+  /// it with increasing t as a loop does (any t works; the first call starts from standing; a
+  /// steered trot sampled before its last command's time restarts, see SetVelocity).
   /// Never allocates.
   void Sample(double t, ReferenceSample* out) noexcept;
 
@@ -157,7 +158,6 @@ class Reference {
   std::array<bool, kNumFeet> frozen_has_next_{};
   std::array<std::array<Foothold, 2>, kNumFeet> footholds_{};  // cache: the last two per leg
   double last_t_ = 0.0;
-
 };
 
 }  // namespace hyq::servo
