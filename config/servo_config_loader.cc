@@ -8,6 +8,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -93,6 +94,25 @@ double Bounded(const Reader& r, const YAML::Node& map, const std::string& path, 
            "a number in [" + detail::FormatNumber(lo) + ", " + detail::FormatNumber(hi) + "]",
            Describe(map[key]));
   return x;
+}
+
+// Three numbers for the base velocity's axes: vx (m/s), vy (m/s), wz (rad/s), each in its range.
+std::array<double, 3> VelocityAxes(const Reader& r, const YAML::Node& map, const std::string& path,
+                                   const char* key, const std::array<double, 3>& d,
+                                   const std::array<double, 3>& hi, const char* units) {
+  const YAML::Node n = map[key];
+  if (!n.IsDefined()) return d;
+  const std::string p = Path(path, key);
+  if (!n.IsSequence() || n.size() != 3)
+    r.Fail(n, p, std::string("3 numbers [vx, vy, wz] in ") + units, Describe(n));
+  std::array<double, 3> v{};
+  for (std::size_t i = 0; i < 3; ++i) {
+    const std::string ep = p + "[" + std::to_string(i) + "]";
+    v[i] = r.ToNumber(n[i], ep);
+    if (v[i] < 0.0 || v[i] > hi[i])
+      r.Fail(n[i], ep, "a number in [0, " + detail::FormatNumber(hi[i]) + "]", Describe(n[i]));
+  }
+  return v;
 }
 
 int BoundedInt(const Reader& r, const YAML::Node& map, const std::string& path, const char* key,
@@ -188,7 +208,7 @@ void ReadReference(const Reader& r, const YAML::Node& root, servo::ServoConfig& 
     const YAML::Node t = r.Map(n, "reference", "trot");
     const std::string p = "reference.trot";
     r.Keys(t, p, {"step_frequency_Hz", "step_height_m", "stride_m", "duty_factor", "start_delay_s",
-                  "ramp_s"});
+                  "ramp_s", "max_velocity", "max_acceleration"});
     auto& s = c.trot;
     s.step_frequency_Hz = Bounded(r, t, p, "step_frequency_Hz", s.step_frequency_Hz, 0.2, 4.0);
     s.step_height_m = Bounded(r, t, p, "step_height_m", s.step_height_m, 0.0, 0.2);
@@ -196,6 +216,14 @@ void ReadReference(const Reader& r, const YAML::Node& root, servo::ServoConfig& 
     s.duty_factor = Bounded(r, t, p, "duty_factor", s.duty_factor, 0.5, 0.95);
     s.start_delay_s = Bounded(r, t, p, "start_delay_s", s.start_delay_s, 0.0, 60.0);
     s.ramp_s = Bounded(r, t, p, "ramp_s", s.ramp_s, 0.0, 60.0);
+    s.max_velocity = VelocityAxes(r, t, p, "max_velocity", s.max_velocity, {1.0, 0.5, 1.5},
+                                  "m/s, m/s, rad/s");
+    s.max_acceleration = VelocityAxes(r, t, p, "max_acceleration", s.max_acceleration,
+                                      {5.0, 5.0, 10.0}, "m/s², m/s², rad/s²");
+    for (std::size_t i = 0; i < 3; ++i)
+      if (!(s.max_acceleration[i] > 0.0))
+        r.Fail(t["max_acceleration"][i], p + ".max_acceleration[" + std::to_string(i) + "]",
+               "a number > 0", Describe(t["max_acceleration"][i]));
   }
   if (n["figure_eight"].IsDefined()) {
     const YAML::Node t = r.Map(n, "reference", "figure_eight");
@@ -327,7 +355,7 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
     const std::string p = "commands";
     r.Keys(n, p, {"enabled", "channel", "key_file", "max_age_ms", "max_senders", "interface",
                   "max_rate_hz", "mu_min", "mu_max", "gain_scale_min", "gain_scale_max",
-                  "allowed_controllers"});
+                  "max_velocity", "allowed_controllers"});
     auto& s = c.commands;
     s.enabled = BoolOr(r, n, p, "enabled", s.enabled);
     s.channel = StringOr(r, n, p, "channel", s.channel);
@@ -358,6 +386,8 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
       r.Fail(n["gain_scale_max"], Path(p, "gain_scale_max"),
              "gain_scale_max >= gain_scale_min (" + detail::FormatNumber(s.gain_scale_min) + ")",
              Describe(n["gain_scale_max"]));
+    s.max_velocity = VelocityAxes(r, n, p, "max_velocity", s.max_velocity, {1.0, 0.5, 1.5},
+                                  "m/s, m/s, rad/s");
     if (n["allowed_controllers"].IsDefined()) {
       const YAML::Node list = n["allowed_controllers"];
       const std::string lp = Path(p, "allowed_controllers");

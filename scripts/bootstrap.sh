@@ -20,6 +20,7 @@ readonly PACKAGES=(
   can-utils iproute2 python3 python3-can python3-cvxopt python3-numpy python3-matplotlib
   libdart-utils-urdf-dev   # DART 6.12: the dynamics reference of tests/dynamics/dart_benchmark
   rt-tests xvfb x11-apps imagemagick util-linux
+  tmux   # drives hyq-teleop in tests/tools/teleop_test.sh
   # run-in-vcan-vm (../shared/tools): a stock Debian kernel with vcan under QEMU
   qemu-system-x86 busybox-static kmod
   # msgpack for python-can's udp_multicast interface, libFuzzer via clang

@@ -67,6 +67,7 @@ const char* ToString(ServoCommand::Kind k) noexcept {
     case ServoCommand::Kind::kSetMu: return "mu";
     case ServoCommand::Kind::kSetController: return "controller";
     case ServoCommand::Kind::kSetGains: return "gains";
+    case ServoCommand::Kind::kSetVelocity: return "velocity";
     case ServoCommand::Kind::kRejected: return "rejected";
   }
   return "unknown";

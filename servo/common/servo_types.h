@@ -103,6 +103,7 @@ struct ServoCommand {
     kSetMu,        // friction per foot used by the controller
     kSetController,
     kSetGains,     // feedback gains (scaled copies of the configured ones)
+    kSetVelocity,  // the trot's commanded base velocity (vx, vy, wz)
     kRejected,     // a command that failed validation (the servo thread goes to its safe state
                    // when safety.damp_on_bad_command; the channel published the reason)
   };
@@ -110,10 +111,11 @@ struct ServoCommand {
   std::array<double, kNumFeet> mu{};        // kSetMu
   ControllerKind controller = ControllerKind::kPid;  // kSetController
   double kp_scale = 1.0, kd_scale = 1.0;          // kSetGains: multipliers of the configured gains
+  std::array<double, 3> velocity{};  // kSetVelocity: vx m/s, vy m/s (heading frame), wz rad/s
   std::uint64_t sequence = 0;                     // the sender's sequence number (echoed in events)
 };
 
-/// "enable", "disable", "damp", "ack", "mu", "controller", "gains", "rejected".
+/// "enable", "disable", "damp", "ack", "mu", "controller", "gains", "velocity", "rejected".
 const char* ToString(ServoCommand::Kind k) noexcept;
 
 }  // namespace hyq::servo

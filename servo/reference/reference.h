@@ -6,7 +6,12 @@
 //   stand:        the standing posture, optionally reached from a lower base height
 //   trot:         diagonal pairs (lf+rh, rf+lh) in antiphase, Barasuol et al., "A reactive
 //                 controller framework for quadrupedal locomotion on challenging terrain",
-//                 ICRA 2013: step frequency, step height, stride length, duty factor
+//                 ICRA 2013: step frequency, step height, stride length, duty factor; steered by
+//                 a commanded base velocity (SetVelocity, docs/steering.md): the velocity ramps
+//                 to the command within limits, the base pose (x, y, yaw) is its integral, and
+//                 each foot lands where the base's hip will be at mid-stance, Raibert's neutral
+//                 point (M. Raibert, "Legged Robots That Balance", MIT Press 1986, ch. 2):
+//                   p_foothold = p_hip(t_touchdown) + v·T_stance/2                        (1)
 //   figure_eight: the body traces a figure eight in the horizontal plane, all feet planted
 #pragma once
 
@@ -50,6 +55,22 @@ struct TrotParams {
   double duty_factor = 0.6;        // fraction of the cycle a foot is in stance (0.5 .. 0.95)
   double start_delay_s = 0.5;      // stand still first
   double ramp_s = 1.0;             // speed ramps up smoothly over this time
+  // steering (SetVelocity): vx forward, vy left (heading frame), wz yaw rate
+  std::array<double, 3> max_velocity{0.4, 0.2, 0.5};      // m/s, m/s, rad/s: commands clamped
+  std::array<double, 3> max_acceleration{0.5, 0.3, 0.8};  // m/s², m/s², rad/s²: ramp bound
+};
+
+/// One axis of the commanded base velocity: a cubic Hermite ramp from (v0, a0) at t0 to v1
+/// (zero acceleration) at t0 + T, then v1. Velocity and acceleration are continuous, so q̈_ref is.
+struct VelocityRamp {
+  double t0 = 0.0, T = 0.0, v0 = 0.0, a0 = 0.0, v1 = 0.0;
+  struct Value {
+    double v, a, integral;  // velocity, acceleration and ∫ v from t0 to t
+  };
+  Value At(double t) const noexcept;
+  /// From (v0, a0) at t0 to v1 with |a| <= a_max throughout (given |a0| <= a_max):
+  ///   T = max(1.5 |v1 − v0| / (a_max − 0.75 |a0|), 0.1 s)
+  static VelocityRamp Plan(double t0, double v0, double a0, double v1, double a_max) noexcept;
 };
 
 struct FigureEightParams {
@@ -71,19 +92,50 @@ class Reference {
                                double height_m = 0.0);
 
   /// The reference at time t (s). The leg IK starts from the previous sample's angles, so call
-  /// it with increasing t as a loop does (any t works; the first call starts from standing).
+  /// it with increasing t as a loop does (any t works; the first call starts from standing; a
+  /// steered trot sampled before its last command's time restarts, see SetVelocity).
   /// Never allocates.
   void Sample(double t, ReferenceSample* out) noexcept;
+
+  /// Trot only (false otherwise): steer the base to (vx, vy) m/s in the heading frame and yaw
+  /// rate wz rad/s, each clamped to TrotParams::max_velocity, from the last sampled time on (not
+  /// before the trot starts) along acceleration-bounded ramps. A foot already swinging keeps the
+  /// foothold chosen at its lift-off. When the reference restarts (Sample at an earlier time, as
+  /// on enable) the base starts from rest and ramps to the last command. Never allocates.
+  bool SetVelocity(double vx_m_s, double vy_m_s, double wz_rad_s) noexcept;
+  /// The commanded velocity after clamping (vx, vy, wz); the default profile's cruise speed until
+  /// the first SetVelocity.
+  const std::array<double, 3>& commanded_velocity() const noexcept { return target_; }
 
   Kind kind() const noexcept { return kind_; }
   /// Feet positions of the standing posture relative to the base, base frame.
   const std::array<Eigen::Vector3d, kNumFeet>& nominal_feet_B() const noexcept { return nominal_; }
 
  private:
+  // the base pose (x, y, yaw) of the steered plan, integrated on a fixed grid from its start
+  struct PoseCursor {
+    long cell = 0;  // whole cells of grid_s integrated from plan_t0_
+    Eigen::Vector3d pose = Eigen::Vector3d::Zero();
+    double grid_s = 1e-3;
+  };
+  // a foothold already chosen: leg's stance of gait cycle `cycle`
+  struct Foothold {
+    double cycle = -1e9;
+    Eigen::Vector3d p_W = Eigen::Vector3d::Zero();
+  };
+
   Reference(const dynamics::Model& model, Kind kind, double height_m);
-  void SampleBase(double t, BaseReference* b) const noexcept;
-  void SampleFeet(double t, ReferenceSample* s) const noexcept;
-  Eigen::Vector3d FootHold(int leg, double t) const noexcept;  // where a stance foot sits
+  void SampleBase(double t, BaseReference* b) noexcept;
+  void SampleFeet(double t, ReferenceSample* s) noexcept;
+  double StanceMid(int leg, double cycle) const noexcept;
+  Eigen::Vector3d FootHold(int leg, double cycle) noexcept;  // where a stance foot sits
+  Eigen::Vector3d PlanPose(double t, PoseCursor* c) const noexcept;  // x, y, yaw
+  void StartPlan(double t0, const std::array<double, 3>& v0, const std::array<double, 3>& a0,
+                 const Eigen::Vector3d& pose0) noexcept;
+
+  // quadrature cells of the turning base's position: the base's own, and the coarser one of the
+  // footholds' prediction (36 cells to the next mid-stance instead of 360, at a lift-off)
+  static constexpr double kGridS = 1e-3, kFootGridS = 1e-2;
 
   const dynamics::Model* model_;
   dynamics::LegKinematics legs_;
@@ -93,6 +145,19 @@ class Reference {
   FigureEightParams eight_;
   std::array<Eigen::Vector3d, kNumFeet> nominal_;  // base frame, standing posture
   dynamics::VectorJ last_q_;
+  // steering: until the first SetVelocity the fixed forward profile (steered_ false)
+  bool steered_ = false;
+  std::array<double, 3> target_{};                // clamped command vx, vy, wz
+  double plan_t0_ = 0.0;                          // when the current ramps began
+  Eigen::Vector3d plan_pose0_ = Eigen::Vector3d::Zero();  // x, y, yaw at plan_t0_
+  std::array<VelocityRamp, 3> ramps_{};
+  PoseCursor base_cursor_, foot_cursor_;
+  // footholds fixed before the current plan began (a stance or a swing under way then)
+  std::array<double, kNumFeet> frozen_cycle_{};
+  std::array<Eigen::Vector3d, kNumFeet> frozen_stance_{}, frozen_next_{};
+  std::array<bool, kNumFeet> frozen_has_next_{};
+  std::array<std::array<Foothold, 2>, kNumFeet> footholds_{};  // cache: the last two per leg
+  double last_t_ = 0.0;
 };
 
 }  // namespace hyq::servo

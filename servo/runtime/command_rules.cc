@@ -62,6 +62,18 @@ CommandOutcome ApplyCommand(const ServoCommand& c, EstimatorStatus estimate,
       safety.Note(EventReason::kCommandApplied, d);
       return CommandOutcome::kApplied;
     }
+    case ServoCommand::Kind::kSetVelocity: {
+      const auto& v = c.velocity;
+      if (t.reference == nullptr || !t.reference->SetVelocity(v[0], v[1], v[2])) {
+        safety.Note(EventReason::kCommandRejected,
+                    "velocity refused: reference: expected trot, found another reference");
+        return CommandOutcome::kRejected;
+      }
+      const auto& got = t.reference->commanded_velocity();
+      std::snprintf(d, sizeof d, "velocity = %.3f m/s %.3f m/s %.3f rad/s", got[0], got[1], got[2]);
+      safety.Note(EventReason::kCommandApplied, d);
+      return CommandOutcome::kApplied;
+    }
     case ServoCommand::Kind::kRejected:
       if (t.damp_on_bad_command && safety.mode() == ServoMode::kActive)
         safety.Report(MakeFault(EventReason::kCommandRejected, -1, -1,

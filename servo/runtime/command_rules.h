@@ -9,6 +9,8 @@
 //   mu          the friction per foot the controller uses, any mode
 //   controller  the controller kind, outside ACTIVE only
 //   gains       the feedback gains, scaled copies of the configured ones, any mode
+//   velocity    the trot's commanded base velocity, any mode (the reference holds still outside
+//               ACTIVE); refused when the reference is not the trot
 //   rejected    an invalid command: DAMPING if ACTIVE and safety.damp_on_bad_command
 #pragma once
 
@@ -17,6 +19,7 @@
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/estimator.h"
+#include "servo/reference/reference.h"
 #include "servo/runtime/safety_state_machine.h"
 
 namespace hyq::servo {
@@ -28,6 +31,7 @@ struct CommandTargets {
   ContactEnvironment* env = nullptr;
   const FeedbackGains* base_gains = nullptr;  // the configured gains (scaled by kSetGains)
   const PidGains* base_pid = nullptr;
+  Reference* reference = nullptr;             // steered by kSetVelocity
   bool damp_on_bad_command = true;
 };
 

@@ -72,7 +72,7 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       friction_(config.friction),
       base_gains_(config.controller.feedback),
       command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
-                       config.safety.damp_on_bad_command} {
+                       reference_.get(), config.safety.damp_on_bad_command} {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
   id_env_ = env_;
   reference_->Sample(0.0, &ref_);

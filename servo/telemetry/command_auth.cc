@@ -146,6 +146,20 @@ std::vector<std::uint8_t> SignEncodedCommand(const CommandKey& key, std::string_
   return out;
 }
 
+std::string DefaultCommandKeyFile() {
+  const char* env_key = std::getenv("HYQ_COMMAND_KEY");
+  return env_key != nullptr && *env_key != '\0' ? env_key : "/etc/hyq/command.key";
+}
+
+std::string DefaultCommandSender() {
+  const char* user = std::getenv("USER");
+  char host[64] = "host";
+  (void)gethostname(host, sizeof host - 1);
+  std::string sender = std::string(user != nullptr && *user != '\0' ? user : "operator") + "@" + host;
+  if (sender.size() > 63) sender.resize(63);
+  return sender;
+}
+
 std::vector<std::uint8_t> SignCommand(const CommandKey& key, std::string_view sender,
                                       const hyq_lcm::lcmt_hyq_command& command) {
   std::vector<std::uint8_t> bytes(static_cast<std::size_t>(command.getEncodedSize()));

@@ -31,6 +31,11 @@ CommandKey LoadCommandKey(const std::string& path);
 /// @throws std::runtime_error naming the file.
 void GenerateCommandKey(const std::string& path);
 
+/// The operator tools' defaults (hyq-command, hyq-teleop): the key file is $HYQ_COMMAND_KEY when
+/// set, else /etc/hyq/command.key; the sender is USER@HOST, cut to 63 bytes.
+std::string DefaultCommandKeyFile();
+std::string DefaultCommandSender();
+
 /// An lcmt_hyq_signed_command carrying `command` from `sender`, encoded and ready to publish.
 /// @throws std::invalid_argument for a sender name outside 1..63 bytes.
 std::vector<std::uint8_t> SignCommand(const CommandKey& key, std::string_view sender,

@@ -24,9 +24,10 @@ std::int64_t ReadBigEndian(const unsigned char* p, int bytes) noexcept {
 bool DecodeCommand(const void* data, std::size_t size, hyq_lcm::lcmt_hyq_command* msg, char* why,
                    std::size_t n) noexcept {
   // layout (lcm-gen, big endian): hash 8, utime 8, sequence 8, kind 1, num_feet 1,
-  // mu 8 × num_feet, controller: int32 length (incl. NUL) + bytes, kp_scale 8, kd_scale 8
+  // mu 8 × num_feet, controller: int32 length (incl. NUL) + bytes, kp_scale 8, kd_scale 8,
+  // velocity 3 × 8
   const auto* b = static_cast<const unsigned char*>(data);
-  constexpr std::size_t kFeetAt = 25, kFixedHead = 26, kTail = 16;
+  constexpr std::size_t kFeetAt = 25, kFixedHead = 26, kTail = 16 + 24;
   if (size < kFixedHead + 4 + 1 + kTail || size > (1u << 16)) {
     std::snprintf(why, n, "message: expected lcmt_hyq_command (%zu..65536 bytes), found %zu bytes",
                   kFixedHead + 4 + 1 + kTail, size);
@@ -79,6 +80,11 @@ void CommandValidator::CheckRanges(const CommandChannelConfig& c) {
   if (!(c.gain_scale_min <= c.gain_scale_max) || !(c.gain_scale_min > 0.0))
     throw std::invalid_argument(
         "CommandChannelConfig gain scale range: expected 0 < gain_scale_min <= gain_scale_max");
+  for (std::size_t i = 0; i < 3; ++i)
+    if (!(c.max_velocity[i] >= 0.0) || !std::isfinite(c.max_velocity[i]))
+      throw std::invalid_argument("CommandChannelConfig.max_velocity[" + std::to_string(i) +
+                                  "]: expected a finite value >= 0, found " +
+                                  std::to_string(c.max_velocity[i]));
   if (!IsPlainChannelName(c.channel))
     throw std::invalid_argument("CommandChannelConfig.channel: expected a plain channel name "
                                 "([A-Za-z0-9_]+; LCM would read a pattern as a regular expression), "
@@ -105,8 +111,8 @@ bool CommandValidator::Validate(const hyq_lcm::lcmt_hyq_command& msg, ServoComma
                                 char* why, std::size_t n) const {
   const CommandChannelConfig& c = config_;
   using K = hyq_lcm::lcmt_hyq_command;
-  if (msg.kind < K::KIND_ENABLE || msg.kind > K::KIND_SET_GAINS) {
-    std::snprintf(why, n, "kind: expected 0..6, found %d", msg.kind);
+  if (msg.kind < K::KIND_ENABLE || msg.kind > K::KIND_SET_VELOCITY) {
+    std::snprintf(why, n, "kind: expected 0..%d, found %d", K::KIND_SET_VELOCITY, msg.kind);
     return false;
   }
   out->kind = static_cast<ServoCommand::Kind>(msg.kind);
@@ -149,6 +155,20 @@ bool CommandValidator::Validate(const hyq_lcm::lcmt_hyq_command& msg, ServoComma
       out->kp_scale = msg.kp_scale;
       out->kd_scale = msg.kd_scale;
       break;
+    case K::KIND_SET_VELOCITY: {
+      constexpr const char* kNames[3] = {"velocity.vx", "velocity.vy", "velocity.wz"};
+      constexpr const char* kUnits[3] = {"m/s", "m/s", "rad/s"};
+      for (std::size_t i = 0; i < 3; ++i) {
+        const double v = msg.velocity[i], lim = c.max_velocity[i];
+        if (!std::isfinite(v) || v < -lim || v > lim) {
+          std::snprintf(why, n, "%s: expected [%g, %g] %s, found %g", kNames[i], -lim, lim,
+                        kUnits[i], v);
+          return false;
+        }
+        out->velocity[i] = v;
+      }
+      break;
+    }
     default:
       break;
   }

@@ -3,6 +3,7 @@
 // and the counters it keeps.
 #pragma once
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -46,6 +47,8 @@ struct CommandChannelConfig {
   double max_rate_hz = 10.0;             // accepted commands at most this often; faster ones are refused
   double mu_min = 0.0, mu_max = 2.0;     // accepted friction range (inclusive)
   double gain_scale_min = 0.1, gain_scale_max = 2.0;  // accepted kp/kd multipliers (inclusive)
+  /// accepted |vx| m/s, |vy| m/s, |wz| rad/s of a set-velocity command (inclusive)
+  std::array<double, 3> max_velocity{0.4, 0.2, 0.5};
   std::vector<std::string> allowed_controllers = {"pid", "noslip", "stage1", "two_stage"};
 };
 

@@ -53,9 +53,33 @@ TEST(DecodeCommand, AcceptsWhatTheGeneratedEncoderWrites) {
   EXPECT_EQ(out.controller, "two_stage");
 }
 
+TEST(DecodeCommand, SetVelocityCarriesItsThreeAxes) {
+  K m = Enable();
+  m.kind = K::KIND_SET_VELOCITY;
+  m.velocity[0] = 0.25;
+  m.velocity[1] = -0.1;
+  m.velocity[2] = 0.4;
+  const auto b = Encode(m);
+  K out;
+  char why[kEventDetailSize];
+  ASSERT_TRUE(DecodeCommand(b.data(), b.size(), &out, why, sizeof why)) << why;
+  EXPECT_EQ(out.velocity[0], 0.25);
+  EXPECT_EQ(out.velocity[1], -0.1);
+  EXPECT_EQ(out.velocity[2], 0.4);
+  // the velocity is the fixed tail: one byte short is refused with a reason
+  EXPECT_FALSE(DecodeCommand(b.data(), b.size() - 1, &out, why, sizeof why));
+  const CommandValidator v{CommandChannelConfig{}};
+  ServoCommand c;
+  ASSERT_TRUE(v.Validate(out, &c, why, sizeof why)) << why;
+  EXPECT_EQ(c.kind, ServoCommand::Kind::kSetVelocity);
+  out.velocity[0] = 0.5;  // beyond the default 0.4 m/s
+  EXPECT_FALSE(v.Validate(out, &c, why, sizeof why));
+  EXPECT_STREQ(why, "velocity.vx: expected [-0.4, 0.4] m/s, found 0.5");
+}
+
 TEST(DecodeCommand, NegativeFootCountIsRefusedNotThrown) {
-  auto b = Encode(Enable());  // 47 bytes: an empty string is its length and a NUL
-  ASSERT_EQ(b.size(), 47u);
+  auto b = Encode(Enable());  // 71 bytes: an empty string is its length and a NUL
+  ASSERT_EQ(b.size(), 71u);
   b[25] = 0xff;  // num_feet = -1
   K out;
   char why[kEventDetailSize];

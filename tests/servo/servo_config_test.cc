@@ -6,6 +6,8 @@
 
 #include <filesystem>
 
+#include <array>
+#include <cmath>
 #include <cstring>
 #include <string>
 
@@ -114,6 +116,7 @@ TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
   max_age_ms: 250
   max_senders: 4
   interface: eth1
+  max_velocity: [0.3, 0.1, 0.25]
 )");
   const servo::CommandChannelConfig& k = c.commands;
   EXPECT_TRUE(k.enabled);
@@ -153,6 +156,35 @@ TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
   msg.kd_scale = 1.6;
   EXPECT_FALSE(v.Validate(msg, &out, why, sizeof why));
   EXPECT_STREQ(why, "kd_scale: expected [0.5, 1.5], found 1.6");
+  msg.kind = hyq_lcm::lcmt_hyq_command::KIND_SET_VELOCITY;
+  msg.velocity[0] = 0.3;
+  msg.velocity[1] = -0.1;
+  msg.velocity[2] = 0.3;
+  EXPECT_FALSE(v.Validate(msg, &out, why, sizeof why));
+  EXPECT_STREQ(why, "velocity.wz: expected [-0.25, 0.25] rad/s, found 0.3");
+  msg.velocity[2] = std::nan("");
+  EXPECT_FALSE(v.Validate(msg, &out, why, sizeof why));
+  EXPECT_STREQ(why, "velocity.wz: expected [-0.25, 0.25] rad/s, found nan");
+  msg.velocity[2] = -0.25;
+  ASSERT_TRUE(v.Validate(msg, &out, why, sizeof why));
+  EXPECT_EQ(out.kind, servo::ServoCommand::Kind::kSetVelocity);
+  EXPECT_EQ(out.velocity, (std::array<double, 3>{0.3, -0.1, -0.25}));
+}
+
+TEST(ServoConfigYaml, TrotSteeringKeysReachTrotParams) {
+  const servo::ServoConfig c = Parse(R"(reference:
+  kind: trot
+  trot: {max_velocity: [0.3, 0.15, 0.4], max_acceleration: [0.6, 0.4, 1.0]}
+)");
+  EXPECT_EQ(c.trot.max_velocity, (std::array<double, 3>{0.3, 0.15, 0.4}));
+  EXPECT_EQ(c.trot.max_acceleration, (std::array<double, 3>{0.6, 0.4, 1.0}));
+  const servo::TrotParams defaults;  // the shipped file keeps the defaults
+  EXPECT_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").trot.max_velocity,
+            defaults.max_velocity);
+  EXPECT_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").trot.max_acceleration,
+            defaults.max_acceleration);
+  EXPECT_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").commands.max_velocity,
+            servo::CommandChannelConfig{}.max_velocity);
 }
 
 TEST(ServoConfigYaml, TwoStageKeysReachTwoStageSettings) {
@@ -234,6 +266,12 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
       {"commands:\n  channel: HYQ_HEALTH\n", "a channel the telemetry does not publish on"},
       {"telemetry:\n  channel_prefix: \"HYQ.*\"\n", "telemetry.channel_prefix"},
       {"commands:\n  max_age_ms: 0\n", "commands.max_age_ms"},
+      {"commands:\n  max_velocity: [0.1, 0.1]\n",
+       "key 'commands.max_velocity': expected 3 numbers [vx, vy, wz]"},
+      {"reference:\n  trot: {max_velocity: [0.1, -0.2, 0.1]}\n",
+       "key 'reference.trot.max_velocity[1]': expected a number in [0, 0.5], found '-0.2'"},
+      {"reference:\n  trot: {max_acceleration: [0.5, 0, 0.5]}\n",
+       "key 'reference.trot.max_acceleration[1]': expected a number > 0"},
   };
   for (const auto& b : bad) {
     const std::string m = message(b.yaml);

@@ -279,6 +279,39 @@ TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
   for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->torque_setpoint_Nm(j), 0.0);
 }
 
+// set velocity (issue 19): taken in any mode by a trot (an event says what it set), refused with
+// an event naming the reference otherwise
+TEST(ServoLoop, SetVelocitySteersTheTrotOnly) {
+  const auto detail_of = [](const ServoRig& rig, EventReason reason) {
+    for (const auto& e : rig.sink.events)
+      if (e.reason == reason) return std::string(e.detail.data());
+    return std::string();
+  };
+  ServoCommand velocity{.kind = ServoCommand::Kind::kSetVelocity};
+  velocity.velocity = {0.3, -0.1, 9.0};
+  {
+    ServoRig rig(testing::DefaultServoConfig());  // stand
+    rig.BringUpAndStart();
+    rig.sink.commands.push_back(velocity);
+    rig.Steps(2);
+    EXPECT_EQ(detail_of(rig, EventReason::kCommandRejected),
+              "velocity refused: reference: expected trot, found another reference");
+    EXPECT_EQ(rig.loop->stats().commands_rejected, 1u);
+  }
+  ServoConfig cfg = ActiveConfig();
+  cfg.reference = Reference::Kind::kTrot;
+  ServoRig rig(cfg);
+  rig.BringUpAndStart();
+  rig.Steps(600);
+  ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
+  rig.sink.commands.push_back(velocity);
+  rig.Steps(1500);
+  // clamped to reference.trot.max_velocity (the channel refuses beyond commands.max_velocity)
+  EXPECT_EQ(detail_of(rig, EventReason::kCommandApplied),
+            "velocity = 0.300 m/s -0.100 m/s 0.500 rad/s");
+  EXPECT_EQ(rig.loop->mode(), ServoMode::kActive);
+}
+
 TEST(ServoLoop, ControlledStopEndsWithDevicesInPreOp) {
   ServoRig rig(ActiveConfig());
   rig.BringUpAndStart();

@@ -619,7 +619,14 @@ TEST_F(CommandChannel, ValidatesAndRateLimits) {
   EXPECT_NE(e.detail.find("kd_scale: expected [0.1, 2], found 5"), std::string::npos) << e.detail;
   Send(Command(42, 7));
   e = NextRejection();
-  EXPECT_NE(e.detail.find("kind: expected 0..6, found 42"), std::string::npos) << e.detail;
+  EXPECT_NE(e.detail.find("kind: expected 0..7, found 42"), std::string::npos) << e.detail;
+  // a set-velocity beyond commands.max_velocity names the axis, the range and the value
+  auto velocity = Command(K::KIND_SET_VELOCITY, 8);
+  velocity.velocity[1] = -0.35;
+  Send(velocity);
+  e = NextRejection();
+  EXPECT_NE(e.detail.find("velocity.vy: expected [-0.2, 0.2] m/s, found -0.35"), std::string::npos)
+      << e.detail;
 
   // every invalid command so far also reached the servo side as kRejected (so that the servo can
   // go to its safe state), in order, with its sequence number
@@ -636,29 +643,29 @@ TEST_F(CommandChannel, ValidatesAndRateLimits) {
   // too fast: two valid commands back to back, the second is refused (refused for its rate:
   // not an invalid command, so nothing reaches the servo)
   std::this_thread::sleep_for(300ms);
-  ctrl.sequence = 8;
+  ctrl.sequence = 9;
   ctrl.controller = "pid";
   Send(ctrl);
-  Send(Command(K::KIND_ENABLE, 9));
+  Send(Command(K::KIND_ENABLE, 10));
   ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
   EXPECT_EQ(got.kind, ServoCommand::Kind::kSetController);
   EXPECT_EQ(got.controller, ControllerKind::kPid);
   e = NextRejection();
-  EXPECT_NE(e.detail.find("seq 9: rate: expected <= 4 Hz"), std::string::npos) << e.detail;
+  EXPECT_NE(e.detail.find("seq 10: rate: expected <= 4 Hz"), std::string::npos) << e.detail;
   EXPECT_FALSE(telemetry.PopCommand(&got));
 
   // after the interval, a command is accepted again
   std::this_thread::sleep_for(300ms);
-  Send(Command(K::KIND_ENABLE, 10));
+  Send(Command(K::KIND_ENABLE, 11));
   ASSERT_TRUE(PopWithin(&telemetry, &got, 3s));
   EXPECT_EQ(got.kind, ServoCommand::Kind::kEnable);
-  EXPECT_EQ(got.sequence, 10u);
+  EXPECT_EQ(got.sequence, 11u);
 
   telemetry.Stop();
   const TelemetryStats st = telemetry.stats();
-  EXPECT_EQ(st.commands_received, 10u);
+  EXPECT_EQ(st.commands_received, 11u);
   EXPECT_EQ(st.commands_accepted, 3u);
-  EXPECT_EQ(st.commands_rejected, 7u);
+  EXPECT_EQ(st.commands_rejected, 8u);
 }
 
 // A datagram that made the generated decoder throw inside the LCM handler (num_feet = -1, or a

@@ -1,5 +1,6 @@
 // hyq-command: sends one operator command (lcmt_hyq_command) to the servo's command channel.
 #include <cerrno>
+#include <cmath>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -7,8 +8,6 @@
 #include <string>
 #include <string_view>
 #include <vector>
-
-#include <unistd.h>
 
 #include <lcm/lcm-cpp.hpp>
 
@@ -37,6 +36,10 @@ commands:
   controller NAME        pid | noslip | stage1 | two_stage
   gains KP_SCALE KD_SCALE
                          multipliers of the configured feedback gains (servo accepts [0.1, 2])
+  velocity VX VY WZ      the trot's base velocity: VX m/s forward, VY m/s to the left, WZ rad/s
+                         yaw rate (counter-clockwise); the servo accepts |VX| <= 0.4, |VY| <= 0.2,
+                         |WZ| <= 0.5 by default (commands.max_velocity) and ramps to it
+                         (reference.trot.max_acceleration); "velocity 0 0 0" trots in place
 
 options:
   --key FILE             the robot's key (default $HYQ_COMMAND_KEY, else /etc/hyq/command.key);
@@ -73,16 +76,8 @@ int main(int argc, char** argv) {
                               std::chrono::system_clock::now().time_since_epoch())
                               .count();
   long long sequence = now_us;
-  const char* env_key = std::getenv("HYQ_COMMAND_KEY");
-  std::string key_file = env_key != nullptr && *env_key != '\0' ? env_key : "/etc/hyq/command.key";
-  std::string sender;
-  {
-    const char* user = std::getenv("USER");
-    char host[64] = "host";
-    (void)gethostname(host, sizeof host - 1);
-    sender = std::string(user != nullptr && *user != '\0' ? user : "operator") + "@" + host;
-    if (sender.size() > 63) sender.resize(63);
-  }
+  std::string key_file = hyq::servo::DefaultCommandKeyFile();
+  std::string sender = hyq::servo::DefaultCommandSender();
   std::vector<const char*> args;
   for (int i = 1; i < argc; ++i) {
     const std::string_view a = argv[i];
@@ -126,7 +121,8 @@ int main(int argc, char** argv) {
       args.push_back(argv[i]);
     }
   }
-  if (args.empty()) Fail("expected a command (enable, disable, damp, ack, mu, controller, gains)");
+  if (args.empty())
+    Fail("expected a command (enable, disable, damp, ack, mu, controller, gains, velocity)");
 
   using K = hyq_lcm::lcmt_hyq_command;
   K msg{};
@@ -161,9 +157,18 @@ int main(int argc, char** argv) {
     msg.kind = K::KIND_SET_GAINS;
     msg.kp_scale = ParseNumber("KP_SCALE", args[1]);
     msg.kd_scale = ParseNumber("KD_SCALE", args[2]);
+  } else if (cmd == "velocity") {
+    expect_args(3, "VX VY WZ (m/s, m/s, rad/s)");
+    msg.kind = K::KIND_SET_VELOCITY;
+    for (std::size_t i = 0; i < 3; ++i) {
+      const char* name = i == 0 ? "VX" : i == 1 ? "VY" : "WZ";
+      msg.velocity[i] = ParseNumber(name, args[i + 1]);
+      if (!std::isfinite(msg.velocity[i]))
+        Fail(std::string(name) + ": expected a finite number, found '" + args[i + 1] + "'");
+    }
   } else {
     Fail("unknown command '" + std::string(cmd) +
-         "' (expected enable, disable, damp, ack, mu, controller or gains)");
+         "' (expected enable, disable, damp, ack, mu, controller, gains or velocity)");
   }
 
   std::vector<std::uint8_t> signed_bytes;

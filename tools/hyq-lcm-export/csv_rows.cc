@@ -232,6 +232,9 @@ void Visit(const hyq_lcm::lcmt_hyq_command& m, Csv& c) {
   c.Field("controller", "text", m.controller);
   c.Field("kp_scale", "1", m.kp_scale);
   c.Field("kd_scale", "1", m.kd_scale);
+  c.Field("velocity.vx", "m/s", m.velocity[0]);
+  c.Field("velocity.vy", "m/s", m.velocity[1]);
+  c.Field("velocity.wz", "rad/s", m.velocity[2]);
 }
 
 // the envelope only: the command inside is opaque until the servo has checked its MAC
@@ -253,7 +256,8 @@ constexpr Wire kEventLayout[] = {Wire::k8,      Wire::k8, Wire::k1,      Wire::k
                                  Wire::kString, Wire::kString, Wire::k2, Wire::kString,
                                  Wire::k2,      Wire::k2, Wire::kString};
 constexpr Wire kCommandLayout[] = {Wire::k8,      Wire::k8,      Wire::k1, Wire::kCount8,
-                                   Wire::kDoubles, Wire::kString, Wire::k8, Wire::k8};
+                                   Wire::kDoubles, Wire::kString, Wire::k8, Wire::k8,
+                                   Wire::k8,       Wire::k8,      Wire::k8};
 constexpr Wire kSignedCommandLayout[] = {Wire::kString, Wire::kCount32, Wire::kBytes, Wire::kMac};
 
 template <class T>
