@@ -3,19 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "servo/reference/min_jerk.h"
+
 namespace hyq::servo {
 namespace {
-
-// minimum-jerk profile s(x) on [0, 1] and its first two derivatives in x
-struct Smooth {
-  double s, ds, dds;
-};
-Smooth MinJerk(double x) {
-  if (x <= 0.0) return {0.0, 0.0, 0.0};
-  if (x >= 1.0) return {1.0, 0.0, 0.0};
-  const double x2 = x * x, x3 = x2 * x;
-  return {x3 * (10 - 15 * x + 6 * x2), 30 * x2 * (1 - 2 * x + x2), 60 * x * (1 - 3 * x + 2 * x2)};
-}
 
 constexpr double kOnGroundTolerance_m = 0.01;
 

@@ -3,20 +3,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "servo/reference/min_jerk.h"
+
 namespace hyq::servo {
 namespace {
-
-// smoothstep of order 5 and its derivatives: s(0) = 0, s(1) = 1, zero 1st and 2nd derivative at
-// both ends (the minimum-jerk profile)
-struct Smooth {
-  double s, ds, dds;
-};
-Smooth MinJerk(double x) {
-  if (x <= 0.0) return {0.0, 0.0, 0.0};
-  if (x >= 1.0) return {1.0, 0.0, 0.0};
-  const double x2 = x * x, x3 = x2 * x;
-  return {x3 * (10 - 15 * x + 6 * x2), 30 * x2 * (1 - 2 * x + x2), 60 * x * (1 - 3 * x + 2 * x2)};
-}
 
 // 64 s³(1 − s)³: 0 at both ends with zero slope and curvature, 1 at s = ½
 Smooth Bump(double x) {

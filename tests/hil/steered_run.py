@@ -85,14 +85,21 @@ def main():
     enable = [e for e in log if e["from"] == "standby" and e["to"] == "active"]
     if not enable:
         print("steered_run: FAIL: the daemon never became active"); return 1
-    t_enable = enable[0]["time_s"]
+    # the reference's clock starts after the stand-up and stops where the sit-down begins (its
+    # event); the sit-down brakes the base to rest v T / 2 further on (T = 0.3 s), at rest after
+    t_enable = enable[0]["time_s"] + s.get("stand_up_s", 0.0)
     commands = []
     for e in log:
         m = re.match(r"velocity = (\S+) m/s (\S+) m/s (\S+) rad/s", e["detail"])
         if e["reason"] == "command_applied" and m:
             commands.append((e["time_s"] - t_enable, *map(float, m.groups())))
     t_active = s["active_s"]
-    path = commanded_path(commands, t_active)
+    sit = [e for e in log if e["detail"] == "sitting down to the crouch first"]
+    t_ref = sit[0]["time_s"] - t_enable if sit else t_active - s.get("stand_up_s", 0.0)
+    path = commanded_path(commands, t_ref)
+    if sit and len(path) > 1:  # the braking drift along the last velocity
+        (ta, xa, ya, _), (tb, xb, yb, yawb) = path[-2], path[-1]
+        path.append((tb + 0.3, xb + 0.15 * (xb - xa) / (tb - ta), yb + 0.15 * (yb - ya) / (tb - ta), yawb))
     rows = [list(map(float, r[:8])) for r in csv.reader(open(os.path.join(a.out, "truth.csv")))
             if r and r[0][0].isdigit()]
     t0 = sim["released_at_s"]

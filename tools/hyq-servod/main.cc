@@ -210,6 +210,9 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
   j["final_mode"] = hyq::servo::ToString(loop.mode());
   j["cycles"] = s.cycles;
   j["active_s"] = static_cast<double>(s.active_cycles) * c.period_s();
+  // ACTIVE = stand-up + the reference + sit-down (docs/servo.md)
+  j["stand_up_s"] = c.stand_up_s;
+  j["sit_down_s"] = c.sit_down_s;
   j["wall_s"] = wall_s;
   const double n = static_cast<double>(std::max<std::uint64_t>(s.active_cycles, 1));
   j["tracking_error_mean_rad"] = s.tracking_error_sum_rad / n;

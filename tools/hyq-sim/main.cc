@@ -512,7 +512,8 @@ int Run(const Options& o) {
   if (!o.quiet)
     std::fprintf(stderr, "%s: %.3f simulated s in %llu steps, %s, min base height %.3f m, %.2fx real time\n",
                  kTool, robot.time_s(), static_cast<unsigned long long>(c.steps),
-                 robot.fell() ? "fell" : "did not fall", robot.min_base_height_m(), speed);
+                 robot.fell() ? "fell" : robot.sat_down() ? "sat down" : "did not fall",
+                 robot.min_base_height_m(), speed);
   return 0;
 }
 
