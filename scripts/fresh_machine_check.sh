@@ -56,10 +56,22 @@ mount -t proc proc "$root/proc"
 mount --rbind /sys "$root/sys"
 mount --rbind /dev "$root/dev"
 cp /etc/resolv.conf "$root/etc/resolv.conf"
+# this host's own certificate authorities (where a TLS-inspecting proxy stands in front of the
+# package registries, as on this project's machines): the root trusts what the host trusts, and
+# node (npm) reads the system store through NODE_EXTRA_CA_CERTS as the host's does. A machine
+# without them (a plain Debian 12) needs neither.
+extra_ca=()
+if compgen -G "/usr/local/share/ca-certificates/*.crt" >/dev/null; then
+  mkdir -p "$root/usr/local/share/ca-certificates"
+  cp /usr/local/share/ca-certificates/*.crt "$root/usr/local/share/ca-certificates/"
+  chroot "$root" update-ca-certificates >>"$log" 2>&1
+  extra_ca=(NODE_EXTRA_CA_CERTS=/etc/ssl/certs/ca-certificates.crt)
+  step "the host's extra certificate authorities copied into the root"
+fi
 
 inside() {  # a login-like shell in the root, as CI runs: CI=true, no stdin
   chroot "$root" /usr/bin/env -i HOME=/root PATH=/usr/sbin:/usr/bin:/sbin:/bin CI=true \
-    LANG=C.UTF-8 /bin/bash -c "cd /work/main && $1" </dev/null
+    LANG=C.UTF-8 "${extra_ca[@]}" /bin/bash -c "cd /work/main && $1" </dev/null
 }
 declare -A rc secs
 for cmd in scripts/run.sh scripts/test.sh; do
