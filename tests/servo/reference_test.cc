@@ -19,9 +19,25 @@ namespace {
 
 using testing::HyqModel;
 
+constexpr double kFdStep = 1e-5;
+
+// the worst gap between q̇, q̈ and the central differences of q, q̇ over samples at t ∓ h
+struct FdWorst {
+  double qd = 0, qdd = 0;
+  void Add(const ReferenceSample& a, const ReferenceSample& b, const ReferenceSample& c) {
+    qd = std::max(qd, ((c.joints.q - a.joints.q) / (2 * kFdStep) - b.joints.qd).cwiseAbs().maxCoeff());
+    qdd = std::max(qdd, ((c.joints.qd - a.joints.qd) / (2 * kFdStep) - b.joints.qdd).cwiseAbs().maxCoeff());
+  }
+  void Expect(const char* name) const {
+    std::printf("%s: max |q̇ − FD| %.2e rad/s, max |q̈ − FD| %.2e rad/s²\n", name, qd, qdd);
+    EXPECT_LT(qd, 1e-5) << name;
+    EXPECT_LT(qdd, 1e-3) << name;
+  }
+};
+
 void CheckDerivatives(Reference ref, double t_end, const char* name) {
-  constexpr double h = 1e-5;
-  double worst_qd = 0, worst_qdd = 0;
+  constexpr double h = kFdStep;
+  FdWorst worst;
   ReferenceSample a, b, c;
   Reference r0 = ref, r1 = ref, r2 = ref;
   for (double t = 0.01; t < t_end; t += 0.0137) {
@@ -29,14 +45,9 @@ void CheckDerivatives(Reference ref, double t_end, const char* name) {
     r1.Sample(t, &b);
     r2.Sample(t + h, &c);
     ASSERT_EQ(b.ik, dynamics::IkStatus::kOk) << name << " at t = " << t;
-    const VectorJ qd_fd = (c.joints.q - a.joints.q) / (2 * h);
-    const VectorJ qdd_fd = (c.joints.qd - a.joints.qd) / (2 * h);
-    worst_qd = std::max(worst_qd, (qd_fd - b.joints.qd).cwiseAbs().maxCoeff());
-    worst_qdd = std::max(worst_qdd, (qdd_fd - b.joints.qdd).cwiseAbs().maxCoeff());
+    worst.Add(a, b, c);
   }
-  std::printf("%s: max |q̇ − FD| %.2e rad/s, max |q̈ − FD| %.2e rad/s²\n", name, worst_qd, worst_qdd);
-  EXPECT_LT(worst_qd, 1e-5);
-  EXPECT_LT(worst_qdd, 1e-3);
+  worst.Expect(name);
 }
 
 TEST(Reference, JointDerivativesAreConsistent) {
@@ -132,10 +143,10 @@ void AdvanceTo(Reference* ref, double t, const std::vector<SteerCommand>& plan, 
 
 // q̇, q̈ against central differences of copies of a reference that steps forward with the loop
 void CheckSteeredDerivatives(const std::vector<SteerCommand>& plan, double t_end, const char* name) {
-  constexpr double h = 1e-5;
+  constexpr double h = kFdStep;
   Reference ref = Reference::Trot(HyqModel(), TrotParams{});
   std::size_t next = 0;
-  double worst_qd = 0, worst_qdd = 0;
+  FdWorst worst;
   ReferenceSample a, b, c;
   for (double t = 0.01; t < t_end; t += 0.0137) {
     AdvanceTo(&ref, t - 2 * h, plan, &next);
@@ -144,15 +155,10 @@ void CheckSteeredDerivatives(const std::vector<SteerCommand>& plan, double t_end
     r1.Sample(t, &b);
     r2.Sample(t + h, &c);
     ASSERT_EQ(b.ik, dynamics::IkStatus::kOk) << name << " at t = " << t;
-    const VectorJ qd_fd = (c.joints.q - a.joints.q) / (2 * h);
-    const VectorJ qdd_fd = (c.joints.qd - a.joints.qd) / (2 * h);
-    worst_qd = std::max(worst_qd, (qd_fd - b.joints.qd).cwiseAbs().maxCoeff());
-    worst_qdd = std::max(worst_qdd, (qdd_fd - b.joints.qdd).cwiseAbs().maxCoeff());
+    worst.Add(a, b, c);
   }
   ASSERT_EQ(next, plan.size()) << name;
-  std::printf("%s: max |q̇ − FD| %.2e rad/s, max |q̈ − FD| %.2e rad/s²\n", name, worst_qd, worst_qdd);
-  EXPECT_LT(worst_qd, 1e-5) << name;
-  EXPECT_LT(worst_qdd, 1e-3) << name;
+  worst.Expect(name);
 }
 
 // t = 2.23 s is in the swing of rf and lh (phase 2.92, duty factor 0.6), in the ramp of the

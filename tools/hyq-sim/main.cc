@@ -242,7 +242,7 @@ std::atomic<bool> g_stop{false};
 void OnSignal(int) { g_stop = true; }
 
 /// Publishes hyq-sim's truth on LCM from its own thread: the stepping thread only copies the
-/// latest message into a slot (a mutex held for a copy of ~500 bytes); a message not yet
+/// latest message into a slot (try-locked, a copy of ~500 bytes); a message not yet
 /// published when the next one comes is replaced (the newest wins, the viewer wants the present).
 class TruthPublisher {
  public:
@@ -258,9 +258,12 @@ class TruthPublisher {
     wake_.notify_one();
     thread_.join();
   }
+  /// Never waits: the stepping thread (SCHED_FIFO in real time) skips this message when the
+  /// publisher holds the slot, rather than wait behind a SCHED_OTHER thread.
   void Offer(const hyq_lcm::lcmt_hyq_sim_truth& msg) {
     {
-      std::lock_guard<std::mutex> lock(mutex_);
+      std::unique_lock<std::mutex> lock(mutex_, std::try_to_lock);
+      if (!lock.owns_lock()) return;
       slot_ = msg;
       pending_ = true;
     }
