@@ -264,10 +264,11 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
   {
     const YAML::Node n = Section(r, root, "deadline");
     const std::string p = "deadline";
-    r.Keys(n, p, {"budget_fraction", "max_consecutive_misses"});
+    r.Keys(n, p, {"budget_fraction", "max_consecutive_misses", "stop_in_lockstep"});
     c.deadline.budget_fraction = Bounded(r, n, p, "budget_fraction", c.deadline.budget_fraction, 0.05, 1.0);
     c.deadline.max_consecutive_misses =
         BoundedInt(r, n, p, "max_consecutive_misses", c.deadline.max_consecutive_misses, 1, 1000);
+    c.deadline.stop_in_lockstep = BoolOr(r, n, p, "stop_in_lockstep", c.deadline.stop_in_lockstep);
   }
   {
     const YAML::Node n = Section(r, root, "safety");
@@ -477,13 +478,16 @@ servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
 
   const YAML::Node op = Section(r, root, "operation");
   r.Keys(op, "operation", {"auto_enable", "stand_up_s", "sit_down_s", "crouch_height_m",
-                           "sit_damping_Nms_per_rad"});
+                           "sit_damping_Nms_per_rad", "sit_settle_speed_rad_s", "sit_damping_max_s"});
   c.auto_enable = BoolOr(r, op, "operation", "auto_enable", c.auto_enable);
   c.stand_up_s = Bounded(r, op, "operation", "stand_up_s", c.stand_up_s, 0.0, 30.0);
   c.sit_down_s = Bounded(r, op, "operation", "sit_down_s", c.sit_down_s, 0.0, 30.0);
   c.crouch_height_m = Bounded(r, op, "operation", "crouch_height_m", c.crouch_height_m, 0.34, 0.6);
   c.sit_damping_Nms_per_rad = Bounded(r, op, "operation", "sit_damping_Nms_per_rad",
                                       c.sit_damping_Nms_per_rad, 0.0, kMaxKdTau);
+  c.sit_settle_speed_rad_s = Bounded(r, op, "operation", "sit_settle_speed_rad_s",
+                                     c.sit_settle_speed_rad_s, 0.001, 1.0);
+  c.sit_damping_max_s = Bounded(r, op, "operation", "sit_damping_max_s", c.sit_damping_max_s, 0.0, 60.0);
 
   ReadRest(r, root, base_dir, c);
 

@@ -8,7 +8,7 @@ void SafetyStateMachine::BeginCycle(std::uint64_t cycle, std::int64_t now_ns) no
   cycle_ = cycle;
   now_ns_ = now_ns;
   ++cycles_in_mode_;
-  if (mode_ == ServoMode::kDamping &&
+  if (mode_ == ServoMode::kDamping && !hold_damping_ &&
       static_cast<double>(cycles_in_mode_) * dt_ >= limits_.damping_duration_s) {
     const ServoMode next = stop_ ? ServoMode::kStopped : damping_next_;
     Transition(next, stop_ ? EventReason::kStopRequest : EventReason::kDampingDone, -1, -1,
@@ -182,6 +182,7 @@ void SafetyStateMachine::Transition(ServoMode to, EventReason why, int joint, in
   std::snprintf(e.detail.data(), e.detail.size(), "%s", detail);
   mode_ = to;
   cycles_in_mode_ = 0;
+  hold_damping_ = false;
   Push(e);
 }
 

@@ -67,6 +67,9 @@ class SafetyStateMachine {
 
   /// Start of every cycle: its number and time (for events) and the damping timer.
   void BeginCycle(std::uint64_t cycle, std::int64_t now_ns) noexcept;
+  /// While true, DAMPING does not end on its timer (the loop's sit-down: until the robot rests,
+  /// bounded by the loop). Cleared on every transition.
+  void HoldDamping(bool hold) noexcept { hold_damping_ = hold; }
 
   /// Bring-up done: INIT → STANDBY.
   void BringUpComplete() noexcept;
@@ -128,6 +131,7 @@ class SafetyStateMachine {
   std::uint32_t latched_ = 0;  // bit per EventReason reported since the last acknowledgement
   bool stop_ = false;
   bool ack_pending_ = false;
+  bool hold_damping_ = false;
   bool ever_active_ = false;
   std::array<SafetyEvent, kEventCapacity> ring_{};
   std::size_t head_ = 0, size_ = 0;

@@ -57,6 +57,10 @@ struct ServoConfig {
   double sit_down_s = 0.0;              // a controlled stop or disable: down to the crouch first
   double crouch_height_m = 0.40;        // base height of the crouch the robot sits down to
   double sit_damping_Nms_per_rad = 150.0;  // the damping after a sit-down (a fault's: safety.*)
+  // ... lasts until every joint has been slower than this for 0.2 s (the robot rests on the
+  // ground: torque off before that would drop it), at least safety.damping_duration_s
+  double sit_settle_speed_rad_s = 0.05;
+  double sit_damping_max_s = 5.0;       // ... and at most this long
   double duration_s = 0.0;              // ACTIVE time after which the daemon stops; 0 = never
   RealtimeConfig realtime;
   DeadlineConfig deadline;

@@ -63,7 +63,8 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       checker_(config.safety, config.hal),
       safety_(config.safety, config.period_s(), config.auto_enable,
               config.hal.timing.state_timeout_s),
-      deadline_(config.deadline, config.period_s()),
+      deadline_(config.deadline, config.period_s(),
+                config.clock == ClockMode::kRealtime || config.deadline.stop_in_lockstep),
       estimator_(model, config.estimator, config.period_s()),
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
       posture_(std::make_unique<PostureMove>(model)),
@@ -298,13 +299,22 @@ void ServoLoop::EstimateFriction() noexcept {
 }
 
 void ServoLoop::Damping() noexcept {
-  // after a sit-down the legs fold onto their stops under stronger damping; a fault's stays
-  const double D = sat_down_ && !safety_.damping_for_fault() ? config_.sit_damping_Nms_per_rad
-                                                              : config_.safety.damping_Nms_per_rad;
+  // after a sit-down the legs fold onto their stops under stronger damping, until the robot
+  // rests (every joint slower than sit_settle_speed_rad_s for 0.2 s; at most sit_damping_max_s);
+  // a fault's damping stays as configured (safety.*)
+  const bool sit = sat_down_ && !safety_.damping_for_fault();
+  const double D = sit ? config_.sit_damping_Nms_per_rad : config_.safety.damping_Nms_per_rad;
+  double fastest = 0.0;
   for (int j = 0; j < kNumJoints; ++j) {
     const auto& in = hal_.image().joints[static_cast<std::size_t>(j)];
-    tau_(j) = in.valid() && std::isfinite(in.velocity_rad_s) ? -D * in.velocity_rad_s : 0.0;
+    const bool ok = in.valid() && std::isfinite(in.velocity_rad_s);
+    tau_(j) = ok ? -D * in.velocity_rad_s : 0.0;
+    fastest = ok ? std::max(fastest, std::abs(in.velocity_rad_s)) : HUGE_VAL;
   }
+  if (safety_.cycles_in_mode() <= 1) settled_s_ = 0.0;
+  settled_s_ = fastest < config_.sit_settle_speed_rad_s ? settled_s_ + dt_ : 0.0;
+  const double in_mode_s = static_cast<double>(safety_.cycles_in_mode()) * dt_;
+  safety_.HoldDamping(sit && settled_s_ < 0.2 && in_mode_s < config_.sit_damping_max_s);
 }
 
 // the safety decision applied: the torque the mode allows, the devices' requested state

@@ -154,6 +154,7 @@ class ServoLoop {
   bool sat_down_ = false;  // the damping that follows is the sit-down's, not a fault's
   bool sit_pending_ = false;  // a sit-down waits for the gait to have every foot down
   double sit_wait_s_ = 0.0;
+  double settled_s_ = 0.0;  // after a sit-down: how long every joint has been at rest
   std::unique_ptr<Controller> controller_;
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
   ContactEnvironment env_;     // configured or commanded μ (the estimate's upper bound)

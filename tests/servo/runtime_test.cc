@@ -31,6 +31,14 @@ TEST(DeadlineMonitor, FaultsOnlyAfterTheConfiguredMissesInARow) {
   EXPECT_EQ(m.max_consecutive(), 3u);
 }
 
+// lock-step without stop_in_lockstep: every miss counted, none a fault
+TEST(DeadlineMonitor, CountsButNeverFaultsWhenNotEnforced) {
+  DeadlineMonitor m({.budget_fraction = 0.5, .max_consecutive_misses = 2}, 1e-3, /*enforce=*/false);
+  for (int i = 0; i < 10; ++i) EXPECT_FALSE(m.Observe(900'000, 900'000)) << i;
+  EXPECT_EQ(m.misses(), 10u);
+  EXPECT_EQ(m.max_consecutive(), 10u);
+}
+
 TEST(SafetyStateMachine, DecidesTorqueAndDeviceRequestsPerMode) {
   SafetyLimits limits;
   limits.damping_duration_s = 0.003;  // three cycles at 1 kHz
@@ -81,6 +89,27 @@ TEST(SafetyStateMachine, DecidesTorqueAndDeviceRequestsPerMode) {
   // or the stop timeout passes
   for (int i = 0; i < 6; ++i) s.BeginCycle(++cycle, 0);
   EXPECT_TRUE(s.Decide(false).finished);
+}
+
+// the loop's sit-down holds DAMPING past its timer while the robot still moves; the hold is
+// cleared by the next transition
+TEST(SafetyStateMachine, HeldDampingOutlastsItsTimerUntilReleased) {
+  SafetyLimits limits;
+  limits.damping_duration_s = 0.002;
+  SafetyStateMachine s(limits, 1e-3);
+  s.BringUpComplete();
+  ASSERT_TRUE(s.Enable(EventReason::kEnableCommand));
+  s.Stop();
+  ASSERT_EQ(s.mode(), ServoMode::kDamping);
+  std::uint64_t cycle = 0;
+  for (int i = 0; i < 50; ++i) {
+    s.HoldDamping(true);
+    s.BeginCycle(++cycle, 0);
+  }
+  EXPECT_EQ(s.mode(), ServoMode::kDamping);  // 50 cycles, the timer says 2
+  s.HoldDamping(false);
+  s.BeginCycle(++cycle, 0);
+  EXPECT_EQ(s.mode(), ServoMode::kStopped);
 }
 
 TEST(SafetyStateMachine, AcknowledgeOutsideFaultIsRefusedWithAnEvent) {

@@ -102,6 +102,40 @@ telemetry:
   EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").friction.enabled);
 }
 
+TEST(ServoConfigYaml, EveryDeadlineKeyReachesDeadlineConfig) {
+  const servo::ServoConfig c = Parse("deadline:\n  budget_fraction: 0.8\n  max_consecutive_misses: 7\n"
+                                     "  stop_in_lockstep: true\n");
+  EXPECT_DOUBLE_EQ(c.deadline.budget_fraction, 0.8);
+  EXPECT_EQ(c.deadline.max_consecutive_misses, 7);
+  EXPECT_TRUE(c.deadline.stop_in_lockstep);
+  // shipped: the lock-step plant waits, so its misses are only counted
+  EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").deadline.stop_in_lockstep);
+  EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").deadline.stop_in_lockstep);
+}
+
+TEST(ServoConfigYaml, EveryOperationKeyReachesServoConfig) {
+  const servo::ServoConfig c = Parse(R"(operation:
+  auto_enable: true
+  stand_up_s: 2.5
+  sit_down_s: 1.25
+  crouch_height_m: 0.42
+  sit_damping_Nms_per_rad: 120
+  sit_settle_speed_rad_s: 0.03
+  sit_damping_max_s: 4
+)");
+  EXPECT_TRUE(c.auto_enable);
+  EXPECT_DOUBLE_EQ(c.stand_up_s, 2.5);
+  EXPECT_DOUBLE_EQ(c.sit_down_s, 1.25);
+  EXPECT_DOUBLE_EQ(c.crouch_height_m, 0.42);
+  EXPECT_DOUBLE_EQ(c.sit_damping_Nms_per_rad, 120.0);
+  EXPECT_DOUBLE_EQ(c.sit_settle_speed_rad_s, 0.03);
+  EXPECT_DOUBLE_EQ(c.sit_damping_max_s, 4.0);
+  // the shipped robot file: the sit-down rests the robot before the torque goes
+  const servo::ServoConfig shipped = config::LoadServoConfig(kConfigDir / "hyq_servo.yaml");
+  EXPECT_DOUBLE_EQ(shipped.sit_settle_speed_rad_s, 0.05);
+  EXPECT_DOUBLE_EQ(shipped.sit_damping_max_s, 5.0);
+}
+
 TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
   const servo::ServoConfig c = Parse(R"(commands:
   enabled: true
