@@ -145,14 +145,14 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
   r.Keys(n, "controller", {"kind", "gains", "two_stage"});
   auto& cc = c.controller;
   if (n["kind"].IsDefined()) {
-    const std::string k = r.OneOf(n, "controller", "kind", {"pid", "noslip", "stage1", "two_stage"});
+    const std::string k = r.OneOf(n, "controller", "kind", {"pid", "noslip", "stage1", "two_stage", "pd_gravity"});
     cc.kind = *servo::ParseControllerKind(k);
   }
   if (n["gains"].IsDefined()) {
     const YAML::Node g = r.Map(n, "controller", "gains");
     const std::string gp = "controller.gains";
     r.Keys(g, gp, {"kp_tau", "kd_tau", "kp_acc", "kd_acc", "pid_kp", "pid_ki", "pid_kd",
-                   "pid_i_limit"});
+                   "pid_i_limit", "pdg_kp", "pdg_kd", "ki_tau", "i_limit_tau"});
     const double rate = c.rate_hz;
     if (g["kp_tau"].IsDefined()) cc.feedback.kp_tau = PerJoint(r, g, gp, "kp_tau", 0, kMaxKpTau, "N·m/rad");
     if (g["kd_tau"].IsDefined()) cc.feedback.kd_tau = PerJoint(r, g, gp, "kd_tau", 0, kMaxKdTau, "N·m·s/rad");
@@ -162,6 +162,10 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     if (g["pid_kp"].IsDefined()) cc.pid.kp = PerJoint(r, g, gp, "pid_kp", 0, kMaxKpTau, "N·m/rad");
     if (g["pid_ki"].IsDefined()) cc.pid.ki = PerJoint(r, g, gp, "pid_ki", 0, kMaxKiTau, "N·m/(rad·s)");
     if (g["pid_kd"].IsDefined()) cc.pid.kd = PerJoint(r, g, gp, "pid_kd", 0, kMaxKdTau, "N·m·s/rad");
+    if (g["ki_tau"].IsDefined()) cc.feedback.ki_tau = PerJoint(r, g, gp, "ki_tau", 0, kMaxKiTau, "N·m/(rad·s)");
+    if (g["i_limit_tau"].IsDefined()) cc.feedback.i_limit_tau = PerJoint(r, g, gp, "i_limit_tau", 0, 1000, "N·m");
+    if (g["pdg_kp"].IsDefined()) cc.pd_gravity.kp = PerJoint(r, g, gp, "pdg_kp", 0, kMaxKpTau, "N·m/rad");
+    if (g["pdg_kd"].IsDefined()) cc.pd_gravity.kd = PerJoint(r, g, gp, "pdg_kd", 0, kMaxKdTau, "N·m·s/rad");
     if (g["pid_i_limit"].IsDefined()) cc.pid.i_limit = PerJoint(r, g, gp, "pid_i_limit", 0, 1000, "N·m");
   }
   if (n["two_stage"].IsDefined()) {
@@ -533,6 +537,8 @@ void ValidateServoConfig(const servo::ServoConfig& c) {
          detail::FormatNumber(c.controller.feedback.kp_acc.maxCoeff()));
   const bool pd = c.controller.kind == servo::ControllerKind::kPid
                       ? c.controller.pid.kp.maxCoeff() > 0.0
+                  : c.controller.kind == servo::ControllerKind::kPdGravity
+                      ? c.controller.pd_gravity.kp.maxCoeff() > 0.0
                       : (c.controller.feedback.kp_tau.maxCoeff() > 0.0 ||
                          c.controller.feedback.kp_acc.maxCoeff() > 0.0);
   if (!pd)

@@ -4,7 +4,7 @@
 # network namespace so that nothing leaves the machine. Prints a summary; keeps everything in OUT.
 #
 #   scripts/hil.sh [--out DIR] [--duration S] [--reference trot|figure_eight|stand]
-#                  [--controller two_stage|stage1|noslip|pid] [--mu MU] [--clock lockstep|realtime]
+#                  [--controller two_stage|stage1|noslip|pid|pd_gravity] [--mu MU] [--clock lockstep|realtime]
 #                  [--fault T:KIND:TARGET[:ARG]]... [--sim-arg ARG]... [--servod-arg ARG]...
 #                  [--build DIR] [--no-logger] [--candump] [--sigterm-after S] [--quiet]
 #

@@ -48,6 +48,7 @@ const char* ToString(ControllerKind k) noexcept {
     case ControllerKind::kNoSlipId: return "noslip";
     case ControllerKind::kStage1Id: return "stage1";
     case ControllerKind::kTwoStageId: return "two_stage";
+    case ControllerKind::kPdGravity: return "pd_gravity";
   }
   return "unknown";
 }

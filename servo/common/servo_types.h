@@ -87,10 +87,10 @@ struct SafetyEvent {
 };
 
 /// The joint controllers (servo/control/controller.h).
-enum class ControllerKind : std::uint8_t { kPid, kNoSlipId, kStage1Id, kTwoStageId };
-inline constexpr int kNumControllerKinds = 4;
+enum class ControllerKind : std::uint8_t { kPid, kNoSlipId, kStage1Id, kTwoStageId, kPdGravity };
+inline constexpr int kNumControllerKinds = 5;
 const char* ToString(ControllerKind k) noexcept;
-/// "pid", "noslip", "stage1", "two_stage".
+/// "pid", "noslip", "stage1", "two_stage", "pd_gravity".
 std::optional<ControllerKind> ParseControllerKind(std::string_view name) noexcept;
 
 /// An operator command, validated by the command channel before it reaches the servo thread.

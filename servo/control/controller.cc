@@ -1,5 +1,7 @@
 #include "servo/control/controller.h"
 
+#include <algorithm>
+
 namespace hyq::servo {
 namespace {
 
@@ -23,15 +25,22 @@ Controller::Controller(const dynamics::Model& model, const ControllerConfig& con
     : model_(model),
       config_(config),
       pid_(config.pid, EffortLimits(model)),
+      pd_gravity_(config.pd_gravity, EffortLimits(model)),
       stage1_(Stage1Only(config.id)),
-      two_stage_(WithStage2(config.id)) {}
+      two_stage_(WithStage2(config.id)),
+      effort_limit_(EffortLimits(model)) {}
 
 void Controller::SetKind(ControllerKind kind) noexcept {
   if (kind == config_.kind) return;
   config_.kind = kind;
+  Reset();
+}
+
+void Controller::Reset() noexcept {
   pid_.Reset();
   stage1_.Reset();
   two_stage_.Reset();
+  id_integral_.setZero();
 }
 
 IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& q,
@@ -42,6 +51,11 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
   if (config_.kind == ControllerKind::kPid) {
     *out = IdOutput{};
     out->tau_Nm = pid_.Compute(qj, vj, ref.q, ref.qd, dt);
+    return IdStatus::kOk;
+  }
+  if (config_.kind == ControllerKind::kPdGravity) {
+    *out = IdOutput{};
+    out->tau_Nm = pd_gravity_.Compute(dyn, qj, vj, ref.q, ref.qd, ref.stance);
     return IdStatus::kOk;
   }
   const FeedbackGains& g = config_.feedback;
@@ -57,10 +71,21 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
     case ControllerKind::kNoSlipId: st = noslip_.Solve(model_, dyn, input_, out); break;
     case ControllerKind::kStage1Id: st = stage1_.Solve(model_, dyn, input_, out); break;
     case ControllerKind::kTwoStageId: st = two_stage_.Solve(model_, dyn, input_, out); break;
-    case ControllerKind::kPid: break;
+    case ControllerKind::kPid:
+    case ControllerKind::kPdGravity: break;
   }
-  if (st != IdStatus::kBadInput)
+  if (st != IdStatus::kBadInput) {
     out->tau_Nm += g.kp_tau.cwiseProduct(ref.q - qj) + g.kd_tau.cwiseProduct(ref.qd - vj);
+    for (int j = 0; j < dynamics::kNumJoints; ++j) {
+      const double e = ref.q(j) - qj(j), lim = effort_limit_(j);
+      const double unsat = out->tau_Nm(j) + id_integral_(j);
+      const bool saturated_along_e = (unsat > lim && e > 0.0) || (unsat < -lim && e < 0.0);
+      if (!saturated_along_e)
+        id_integral_(j) = std::clamp(id_integral_(j) + g.ki_tau(j) * e * dt, -g.i_limit_tau(j),
+                                     g.i_limit_tau(j));
+      out->tau_Nm(j) += id_integral_(j);
+    }
+  }
   return st;
 }
 

@@ -3,8 +3,11 @@
 // ID (Zapolsky et al.). What each one adds to the reference (docs/inverse_dynamics.md, "Feedback"):
 //
 //   PID:        τ = PID(q_ref − q, q̇_ref − q̇)                       (PidGains, torque units)
+//   PD + g:     τ = τ_g(q, v, stance) + PD(q_ref − q, q̇_ref − q̇)      (PdGains; pd_gravity.h)
 //   ID kinds:   q̈_des = q̈_ref + Kp (q_ref − q) + Kd (q̇_ref − q̇)     (FeedbackGains, 1/s², 1/s)
-//               τ = ID(q, v, q̈_des, stance, μ) + Kp_τ (q_ref − q) + Kd_τ (q̇_ref − q̇)
+//               τ = ID(q, v, q̈_des, stance, μ) + Kp_τ (q_ref − q) + Kd_τ (q̇_ref − q̇) + I
+//               I ← clamp(I + Ki_τ (q_ref − q) dt, ±i_limit_τ)   (issue 15: integral action against
+//               the model's errors; not integrated while τ saturates along the error: anti-windup)
 //
 // The three ID controllers share the same q̈_des and the same optional PD torque, so their
 // comparison is fair; the PD torque gains are zero unless configured.
@@ -15,6 +18,7 @@
 
 #include "servo/common/servo_types.h"
 #include "servo/control/noslip_id.h"
+#include "servo/control/pd_gravity.h"
 #include "servo/control/pid_controller.h"
 #include "servo/control/two_stage_id.h"
 
@@ -25,12 +29,15 @@ struct FeedbackGains {
   dynamics::VectorJ kd_acc = dynamics::VectorJ::Zero();  // 1/s
   dynamics::VectorJ kp_tau = dynamics::VectorJ::Zero();  // N·m/rad (added PD torque)
   dynamics::VectorJ kd_tau = dynamics::VectorJ::Zero();  // N·m·s/rad
+  dynamics::VectorJ ki_tau = dynamics::VectorJ::Zero();  // N·m/(rad·s) (integral torque)
+  dynamics::VectorJ i_limit_tau = dynamics::VectorJ::Zero();  // N·m, bound on it
 };
 
 struct ControllerConfig {
   ControllerKind kind = ControllerKind::kTwoStageId;
   FeedbackGains feedback;
   PidGains pid;
+  PdGains pd_gravity;  // kPdGravity's PD
   TwoStageSettings id;  // stage2 is forced off for kStage1Id
 };
 
@@ -65,8 +72,14 @@ class Controller {
 
   ControllerKind kind() const noexcept { return config_.kind; }
   void SetKind(ControllerKind kind) noexcept;
+  /// Clears every controller's state (the integrals, warm starts): on each entry into ACTIVE.
+  void Reset() noexcept;
+  /// The ID kinds' integral torque I, N·m.
+  const dynamics::VectorJ& id_integral() const noexcept { return id_integral_; }
   void SetFeedback(const FeedbackGains& g) noexcept { config_.feedback = g; }
   void SetPidGains(const PidGains& g) noexcept { pid_.set_gains(g); }
+  void SetPdGravityGains(const PdGains& g) noexcept { pd_gravity_.set_gains(g); }
+  const PdGravityController& pd_gravity() const noexcept { return pd_gravity_; }
   const ControllerConfig& config() const noexcept { return config_; }
   const FallbackCounters& two_stage_counters() const noexcept { return two_stage_.counters(); }
   const FallbackCounters& stage1_counters() const noexcept { return stage1_.counters(); }
@@ -77,10 +90,13 @@ class Controller {
   const dynamics::Model& model_;
   ControllerConfig config_;
   PidController pid_;
+  PdGravityController pd_gravity_;
   NoSlipId noslip_;
   TwoStageId stage1_;
   TwoStageId two_stage_;
   IdInput input_;
+  dynamics::VectorJ effort_limit_;
+  dynamics::VectorJ id_integral_ = dynamics::VectorJ::Zero();
 };
 
 }  // namespace hyq::servo

@@ -84,7 +84,7 @@ IdRecord FromJson(const json& j) {
   const json& c = Require(j, "controller");
   if (!c.is_string()) Fail("controller", "\"two_stage\", \"stage1\" or \"noslip\"", c);
   const auto kind = ParseControllerKind(c.get<std::string>());
-  if (!kind || *kind == ControllerKind::kPid)
+  if (!kind || *kind == ControllerKind::kPid || *kind == ControllerKind::kPdGravity)
     Fail("controller", "\"two_stage\", \"stage1\" or \"noslip\"", c);
   r.controller = *kind;
   return r;

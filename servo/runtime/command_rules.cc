@@ -58,6 +58,10 @@ CommandOutcome ApplyCommand(const ServoCommand& c, EstimatorStatus estimate,
       p.kp *= c.kp_scale;
       p.kd *= c.kd_scale;
       t.controller->SetPidGains(p);
+      PdGains pg = t.controller->config().pd_gravity;  // the configured ones (never changed)
+      pg.kp *= c.kp_scale;
+      pg.kd *= c.kd_scale;
+      t.controller->SetPdGravityGains(pg);
       std::snprintf(d, sizeof d, "gains scaled kp x%.3f kd x%.3f", c.kp_scale, c.kd_scale);
       safety.Note(EventReason::kCommandApplied, d);
       return CommandOutcome::kApplied;

@@ -212,6 +212,7 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
 
 void ServoLoop::EnterActive() noexcept {
   t_ref_ = 0.0;
+  controller_->Reset();  // no integral or warm start carried over from an earlier ACTIVE
   active_time_ = 0.0;
   for (int j = 0; j < kNumJoints; ++j)
     q0_(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;

@@ -49,7 +49,7 @@ struct CommandChannelConfig {
   double gain_scale_min = 0.1, gain_scale_max = 2.0;  // accepted kp/kd multipliers (inclusive)
   /// accepted |vx| m/s, |vy| m/s, |wz| rad/s of a set-velocity command (inclusive)
   std::array<double, 3> max_velocity{0.4, 0.2, 0.5};
-  std::vector<std::string> allowed_controllers = {"pid", "noslip", "stage1", "two_stage"};
+  std::vector<std::string> allowed_controllers = {"pid", "noslip", "stage1", "two_stage", "pd_gravity"};
 };
 
 /// Counters since construction (each read atomically; together a snapshot, not a transaction).

@@ -136,6 +136,44 @@ TEST(ServoConfigYaml, EveryOperationKeyReachesServoConfig) {
   EXPECT_DOUBLE_EQ(shipped.sit_damping_max_s, 5.0);
 }
 
+// every controller's gains (issue 15: the tuned ones live in the shipped files)
+TEST(ServoConfigYaml, EveryGainKeyReachesControllerConfig) {
+  const std::string robot = "robot:\n  urdf: robots/hyq.urdf\n  hal: hyq_hal.yaml\n";
+  const servo::ServoConfig c = config::ParseServoConfig(robot + R"(controller:
+  kind: pd_gravity
+  gains:
+    kp_tau: 410
+    kd_tau: [11, 12, 13]
+    ki_tau: 55
+    i_limit_tau: 40
+    pid_kp: 900
+    pid_ki: 120
+    pid_kd: 21
+    pid_i_limit: 90
+    pdg_kp: 650
+    pdg_kd: 17
+)", "test.yaml", kConfigDir);
+  const servo::ControllerConfig& k = c.controller;
+  EXPECT_EQ(k.kind, servo::ControllerKind::kPdGravity);
+  EXPECT_DOUBLE_EQ(k.feedback.kp_tau(4), 410.0);
+  EXPECT_DOUBLE_EQ(k.feedback.kd_tau(5), 13.0);
+  EXPECT_DOUBLE_EQ(k.feedback.ki_tau(0), 55.0);
+  EXPECT_DOUBLE_EQ(k.feedback.i_limit_tau(11), 40.0);
+  EXPECT_DOUBLE_EQ(k.pid.kp(3), 900.0);
+  EXPECT_DOUBLE_EQ(k.pid.ki(3), 120.0);
+  EXPECT_DOUBLE_EQ(k.pid.kd(3), 21.0);
+  EXPECT_DOUBLE_EQ(k.pid.i_limit(3), 90.0);
+  EXPECT_DOUBLE_EQ(k.pd_gravity.kp(7), 650.0);
+  EXPECT_DOUBLE_EQ(k.pd_gravity.kd(7), 17.0);
+  // pd_gravity without its own position gain is refused by name
+  try {
+    (void)config::ParseServoConfig(robot + "controller:\n  kind: pd_gravity\n", "test.yaml", kConfigDir);
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("pd_gravity"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ServoConfigYaml, EveryCommandKeyReachesCommandChannelConfig) {
   const servo::ServoConfig c = Parse(R"(commands:
   enabled: true

@@ -2,6 +2,7 @@
 // equation (6) with the returned τ and impulses, the constraints (2)–(5), Stage II's energy and
 // torque-norm properties, agreement with the no-slip ID where both apply, friction behaviour,
 // Fig. 1's chatter through contact changes, the fallback chain and the heap.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -839,8 +840,9 @@ TEST_F(TwoStage, NoHeapInAnyControllerAfterWarmup) {
   const IdInput a = Consistent(kAll), b = Consistent(kLfRh);
   const auto da = Dyn(a), db = Dyn(b);
   IdOutput out;
+  cfg.pd_gravity.kp.setConstant(300.0);
   for (auto kind : {ControllerKind::kTwoStageId, ControllerKind::kStage1Id,
-                    ControllerKind::kNoSlipId, ControllerKind::kPid}) {
+                    ControllerKind::kNoSlipId, ControllerKind::kPid, ControllerKind::kPdGravity}) {
     ctl.SetKind(kind);
     ref.stance = kAll;
     (void)ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &out);  // warm-up
@@ -879,6 +881,90 @@ TEST(Pid, AntiWindupAndLimits) {
   pid.set_gains(g);
   for (int k = 0; k < 1000; ++k) tau = pid.Compute(q, qd, ref, qd, 1e-3);
   EXPECT_DOUBLE_EQ(pid.integral()(0), 0.0);  // saturated along e: no integration
+}
+
+// the ID kinds' integral torque (issue 15): Ki_τ e dt per cycle, clamped at ±i_limit_τ, added
+// on top of ID + PD; cleared by Reset and by a change of controller
+TEST_F(TwoStage, IdIntegralGrowsToItsLimitAndResets) {
+  ControllerConfig cfg;
+  cfg.kind = ControllerKind::kNoSlipId;
+  cfg.feedback.ki_tau.setConstant(1000.0);
+  cfg.feedback.i_limit_tau.setConstant(20.0);
+  Controller ctl(HyqModel(), cfg);
+  const IdInput a = Consistent(kAll);
+  const auto da = Dyn(a);
+  JointReference ref;
+  ref.q = a.q.tail<kNumJoints>() + VectorJ::Constant(0.01);
+  ref.qd = a.v.tail<kNumJoints>();
+  ContactEnvironment env;
+  IdOutput out;
+  (void)ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &out);
+  EXPECT_NEAR(ctl.id_integral()(0), 1000.0 * 0.01 * 1e-3, 1e-12);  // one step of Ki e dt
+  IdOutput no_i;
+  ControllerConfig plain = cfg;
+  plain.feedback.ki_tau.setZero();
+  Controller ref_ctl(HyqModel(), plain);
+  for (int k = 0; k < 3000; ++k) (void)ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &out);
+  (void)ref_ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &no_i);
+  EXPECT_DOUBLE_EQ(ctl.id_integral().maxCoeff(), 20.0);  // 3 s × 10 N·m/s, clamped at 20
+  EXPECT_TRUE((out.tau_Nm - no_i.tau_Nm).isApprox(VectorJ::Constant(20.0), 1e-6));
+  ctl.Reset();
+  EXPECT_DOUBLE_EQ(ctl.id_integral().norm(), 0.0);
+  (void)ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &out);
+  ctl.SetKind(ControllerKind::kTwoStageId);
+  EXPECT_DOUBLE_EQ(ctl.id_integral().norm(), 0.0);
+}
+
+// PD + gravity compensation's feed-forward is a static equilibrium: with the joint torques τ_g
+// there are stance-foot forces f that balance h exactly in all 18 rows (h = Sᵀτ_g + J_cᵀ f),
+// solved here independently by least squares over the whole system
+TEST(PdGravity, FeedForwardIsAStaticEquilibriumOnTheStanceFeet) {
+  std::mt19937_64 rng(7);
+  for (const auto& stance : {kAll, kLfRh, std::array<bool, 4>{true, true, true, false}}) {
+    const IdInput in = testing::StandingInput(&rng, stance, 0.05);
+    const auto dyn = Dyn(in);
+    PdGravityController pdg(PdGains{}, VectorJ::Constant(1e6));
+    const VectorJ tau = pdg.Compute(*dyn, in.q.tail<kNumJoints>(), in.v.tail<kNumJoints>(),
+                                    in.q.tail<kNumJoints>(), in.v.tail<kNumJoints>(), stance);
+    EXPECT_TRUE(tau.isApprox(pdg.gravity_torque()));  // no error: the feed-forward alone
+    const int n = 3 * static_cast<int>(std::count(stance.begin(), stance.end(), true));
+    Eigen::MatrixXd Jt(dynamics::kNv, n);
+    int c = 0;
+    for (int f = 0; f < 4; ++f)
+      if (stance[static_cast<std::size_t>(f)]) Jt.middleCols<3>(3 * c++) = dyn->feet.J_WF[static_cast<std::size_t>(f)].transpose();
+    VectorV rhs = dyn->bias;
+    rhs.tail<kNumJoints>() -= tau;
+    const Eigen::VectorXd f = Jt.colPivHouseholderQr().solve(rhs);
+    const double residual = (Jt * f - rhs).norm();
+    // two feet cannot hold a moment about the line between them: the least-norm split leaves
+    // that part unbalanced (the damping's share is ~1e-6 of h otherwise)
+    const double tol = n == 6 ? 0.05 * rhs.head<6>().norm() : 1e-4 * rhs.norm();
+    EXPECT_LT(residual, tol) << "stance feet " << n / 3;
+    // the feet carry the robot: the vertical forces add up to the weight's share in h_b
+    double fz = 0.0;
+    for (int k = 0; k < n / 3; ++k) fz += f(3 * k + 2);
+    EXPECT_NEAR(fz, dyn->bias(2), 0.05 * std::abs(dyn->bias(2)));
+  }
+}
+
+TEST(PdGravity, NoStanceIsTheLegsOwnWeightAndTheOutputIsClamped) {
+  std::mt19937_64 rng(8);
+  const IdInput in = testing::StandingInput(&rng, kAll, 0.05);
+  const auto dyn = Dyn(in);
+  PdGains g;
+  g.kp.setConstant(100.0);
+  g.kd.setConstant(2.0);
+  PdGravityController pdg(g, VectorJ::Constant(150.0));
+  const VectorJ q = in.q.tail<kNumJoints>(), qd = in.v.tail<kNumJoints>();
+  VectorJ tau = pdg.Compute(*dyn, q, qd, q, qd, {false, false, false, false});
+  EXPECT_TRUE(pdg.gravity_torque().isApprox(dyn->bias.tail<kNumJoints>()));
+  const VectorJ dq = VectorJ::Constant(0.01);
+  tau = pdg.Compute(*dyn, q, qd, q + dq, qd, {false, false, false, false});
+  EXPECT_TRUE(tau.isApprox(dyn->bias.tail<kNumJoints>() + 100.0 * dq, 1e-12));
+  tau = pdg.Compute(*dyn, q, qd, q + VectorJ::Constant(10.0), qd, kAll);
+  EXPECT_DOUBLE_EQ(tau.maxCoeff(), 150.0);
+  EXPECT_EQ(ParseControllerKind("pd_gravity"), ControllerKind::kPdGravity);
+  EXPECT_STREQ(ToString(ControllerKind::kPdGravity), "pd_gravity");
 }
 
 }  // namespace

@@ -149,7 +149,7 @@ int main(int argc, char** argv) {
     for (std::size_t f = 0; f < 4; ++f)
       msg.mu.push_back(ParseNumber("mu[" + std::to_string(f) + "]", args[f + 1]));
   } else if (cmd == "controller") {
-    expect_args(1, "a controller name (pid, noslip, stage1, two_stage)");
+    expect_args(1, "a controller name (pid, noslip, stage1, two_stage, pd_gravity)");
     msg.kind = K::KIND_SET_CONTROLLER;
     msg.controller = args[1];
   } else if (cmd == "gains") {

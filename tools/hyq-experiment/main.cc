@@ -61,7 +61,7 @@ std::vector<Scenario> Scenarios() {
   std::vector<Scenario> all;
   const std::pair<const char*, ControllerKind> controllers[] = {
       {"pid", ControllerKind::kPid}, {"noslip", ControllerKind::kNoSlipId},
-      {"two_stage", ControllerKind::kTwoStageId}};
+      {"two_stage", ControllerKind::kTwoStageId}, {"pd_gravity", ControllerKind::kPdGravity}};
   for (double mu : {0.1, 1.0}) {
     for (auto [cname, kind] : controllers) {
       char buf[64];

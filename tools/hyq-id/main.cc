@@ -183,7 +183,8 @@ int main(int argc, char** argv) {
       case servo::ControllerKind::kTwoStageId: st = two_stage.Solve(model, *dyn, rec.input, &result); break;
       case servo::ControllerKind::kStage1Id: st = stage1.Solve(model, *dyn, rec.input, &result); break;
       case servo::ControllerKind::kNoSlipId: st = noslip.Solve(model, *dyn, rec.input, &result); break;
-      case servo::ControllerKind::kPid: break;
+      case servo::ControllerKind::kPid:
+      case servo::ControllerKind::kPdGravity: break;
     }
     if (st != servo::IdStatus::kOk) {
       ++fallbacks;

@@ -65,7 +65,7 @@ default), checks everything (safety) and writes the joint torques; LCM telemetry
   --clock realtime|lockstep
                          absolute-time periods, or virtual time waiting for the devices' answers
                          after each SYNC (hardware-in-the-loop with hyq-sim --mode lockstep)
-  --controller KIND      pid, noslip, stage1 or two_stage
+  --controller KIND      pid, noslip, stage1, two_stage or pd_gravity
   --reference KIND       stand, trot or figure_eight
   --mu M | --mu A,B,C,D  friction coefficient the controller assumes (all feet / lf,rf,lh,rh)
   --duration S           stop after S seconds in ACTIVE (0: run until SIGINT/SIGTERM)
@@ -135,7 +135,7 @@ Options Parse(int argc, char** argv) {
     } else if (a == "--controller") {
       o.controller = value();
       if (!hyq::servo::ParseControllerKind(*o.controller))
-        BadFlag(a, "pid, noslip, stage1 or two_stage", *o.controller);
+        BadFlag(a, "pid, noslip, stage1, two_stage or pd_gravity", *o.controller);
     } else if (a == "--reference") {
       o.reference = value();
       if (*o.reference != "stand" && *o.reference != "trot" && *o.reference != "figure_eight")

@@ -25,6 +25,8 @@ servo::ControllerConfig StandardController(servo::ControllerKind kind) {
     c.pid.i_limit(j) = 0.0;
     c.feedback.kp_tau(j) = kp[j % 3];
     c.feedback.kd_tau(j) = kd[j % 3];
+    c.pd_gravity.kp(j) = kp[j % 3];
+    c.pd_gravity.kd(j) = kd[j % 3];
   }
   // the ID controllers' q̈_des = q̈_ref (no acceleration feedback: the PD above is the feedback)
   return c;
@@ -223,7 +225,8 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     case servo::ControllerKind::kTwoStageId: r.fallbacks = ctl.two_stage_counters(); break;
     case servo::ControllerKind::kStage1Id: r.fallbacks = ctl.stage1_counters(); break;
     case servo::ControllerKind::kNoSlipId: r.fallbacks = ctl.noslip_counters(); break;
-    case servo::ControllerKind::kPid: break;
+    case servo::ControllerKind::kPid:
+    case servo::ControllerKind::kPdGravity: break;
   }
   return r;
 }
