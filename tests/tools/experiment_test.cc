@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "config/hal_config_loader.h"
 #include "dynamics/cycle_dynamics.h"
 #include "servo/control/two_stage_id.h"
 #include "tests/dynamics/hyq_fixture.h"
@@ -144,6 +145,32 @@ TEST(ClosedLoop, EstimatedFrictionCrossesTheIcyPatchLikeTheOracle) {
   EXPECT_EQ(onto, 4);
   for (const auto& smp : estimated.samples)
     for (int f = 0; f < 4; ++f) ASSERT_LE(smp.mu_control[static_cast<std::size_t>(f)], 1.0);
+}
+
+// Issue 15: on the `realistic` plant (model error, hydraulics, friction, delay, load-cell bias)
+// the two-stage ID still trots on μ = 0.1 without falling, tracking worse than on the model
+// (docs/simulation.md has the numbers; measured 6 s: 0.22 rad vs 0.027 rad).
+TEST(ClosedLoop, RealisticPlantTrotsWithoutFalling) {
+  ExperimentConfig c;
+  c.reference = servo::Reference::Kind::kTrot;
+  c.duration_s = 3.0;
+  c.mu = 0.1;
+  c.controller = StandardController(ControllerKind::kTwoStageId);
+  c.profile = PlantProfile::Realistic();
+  const hal::HalConfig hal = config::LoadHalConfig(testing::SourceDir() / "config/hyq_hal.yaml");
+  c.joints.assign(hal.joints.begin(), hal.joints.end());
+  const ExperimentResult r = RunExperiment(HyqModel(), c);
+  std::printf("realistic trot, two-stage ID, mu 0.1, 3 s: mean error %.4f rad, max %.4f, fell %d\n",
+              r.mean_error_rad, r.max_error_rad, r.fell);
+  EXPECT_FALSE(r.fell);
+  EXPECT_LT(r.mean_error_rad, 0.4);
+  // the applied torque is not the commanded one (actuators, delay)
+  double differ = 0;
+  for (const Sample& s : r.samples) differ = std::max(differ, (s.tau_applied - s.tau).cwiseAbs().maxCoeff());
+  EXPECT_GT(differ, 1.0);
+  // and without hydraulics the profile needs no calibration; with them it does
+  c.joints.clear();
+  EXPECT_THROW(RunExperiment(HyqModel(), c), std::invalid_argument);
 }
 
 TEST(ClosedLoop, SameSeedSameRun) {

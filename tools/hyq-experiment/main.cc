@@ -15,6 +15,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "config/hal_config_loader.h"
 #include "dynamics/urdf_loader.h"
 #include "servo/control/id_record.h"
 #include "tools/sim/experiment.h"
@@ -40,7 +41,15 @@ constexpr std::string_view kUsage =
     "  --scenario NAME  one scenario (repeatable); --list shows the names\n"
     "  --out DIR        output folder\n"
     "  --record-id      also write every cycle's ID problem, DIR/<scenario>.id.jsonl (hyq-id\n"
-    "                   replays them)\n";
+    "                   replays them)\n"
+    "  --profile NAME   the plant every scenario runs on: ideal (default: the model, torques\n"
+    "                   applied as computed) or realistic (model error, HyQ's hydraulics and\n"
+    "                   torque loop, joint friction, 1-cycle delay, load-cell bias;\n"
+    "                   docs/simulation.md)\n"
+    "  --payload KG,X,Y,Z|off, --link-errors SEED|off, --hydraulics on|off,\n"
+    "  --joint-friction on|off, --delay-cycles K, --load-cell-bias NM, --bias-seed N\n"
+    "                   one factor of the profile changed (after --profile, whatever the\n"
+    "                   order; as in hyq-sim --help)\n";
 
 struct Scenario {
   std::string name;
@@ -258,6 +267,8 @@ int main(int argc, char** argv) {
   std::string out_dir = "experiments";
   bool all = false;
   bool record_id = false;
+  sim::PlantProfile profile;
+  std::vector<std::pair<std::string, std::string>> profile_flags;
   const auto scenarios = Scenarios();
   for (int i = 1; i < argc; ++i) {
     const std::string_view a = argv[i];
@@ -276,11 +287,30 @@ int main(int argc, char** argv) {
       record_id = true;
     } else if (a == "--scenario" && i + 1 < argc) {
       wanted.emplace_back(argv[++i]);
+    } else if (a == "--profile" && i + 1 < argc) {
+      try {
+        profile = sim::ProfileByName(argv[++i], "--profile");
+      } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "hyq-experiment: %s\n", e.what());
+        return 2;
+      }
+    } else if ((a == "--payload" || a == "--link-errors" || a == "--hydraulics" ||
+                a == "--joint-friction" || a == "--delay-cycles" || a == "--load-cell-bias" ||
+                a == "--bias-seed") && i + 1 < argc) {
+      profile_flags.emplace_back(std::string(a), argv[++i]);
     } else if (a == "--out" && i + 1 < argc) {
       out_dir = argv[++i];
     } else {
       std::fprintf(stderr, "hyq-experiment: unknown or incomplete option '%s'\n\n%s", argv[i],
                    kUsage.data());
+      return 2;
+    }
+  }
+  for (const auto& [flag, value] : profile_flags) {
+    try {
+      sim::ApplyProfileFlag(flag, value, &profile);
+    } catch (const std::invalid_argument& e) {
+      std::fprintf(stderr, "hyq-experiment: %s\n", e.what());
       return 2;
     }
   }
@@ -298,6 +328,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   const dynamics::Model model = dynamics::LoadModelFromUrdf(HYQ_DEFAULT_URDF);
+  const hal::HalConfig hal_config = config::LoadHalConfig(HYQ_DEFAULT_HAL_CONFIG);
   std::filesystem::create_directories(out_dir);
   nlohmann::json results = nlohmann::json::object();
   const auto t_all = std::chrono::steady_clock::now();
@@ -306,6 +337,8 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     sim::ExperimentConfig cfg = s.cfg;
     cfg.record_id_inputs = record_id && cfg.controller.kind != ControllerKind::kPid;
+    cfg.profile = profile;
+    cfg.joints.assign(hal_config.joints.begin(), hal_config.joints.end());
     const auto r = sim::RunExperiment(model, cfg, [&](double f) {
       std::fprintf(stderr, "\r[%zu/%zu] %-26s %3.0f %%", i + 1, run.size(), s.name.c_str(), 100 * f);
     });
@@ -344,7 +377,8 @@ int main(int argc, char** argv) {
                        {"qp_us", {{"mean", qp_mean}, {"median", qpct(0.5)}, {"p999", qpct(0.999)}, {"max", qp_us.back()}}},
                        {"torque_total_variation_Nm", r.torque_total_variation},
                        {"fallbacks", {{"stage1_failed", r.fallbacks.stage1_failed}, {"stage2_failed", r.fallbacks.stage2_failed}}},
-                       {"realtime_factor", s.cfg.duration_s / wall}};
+                       {"realtime_factor", s.cfg.duration_s / wall},
+                       {"profile", nlohmann::json::parse(profile.Json())}};
     if (!s.cfg.patches.empty()) {
       nlohmann::json settling = nlohmann::json::array();
       for (const auto& st : r.settling)

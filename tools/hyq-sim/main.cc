@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <exception>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -54,6 +55,10 @@ struct Options {
   // on CPU 0 where two cores exist (the daemon's servo thread takes the last one)
   int rt_priority = 70;
   int cpu = hyq::servo::kAutoCpu;
+  // the plant profile (issue 15): the named one, then each factor's flag on top of it
+  std::string profile = "ideal";
+  std::vector<std::function<void(hyq::sim::PlantProfile*)>> profile_overrides;
+  std::string write_model;  // write the plant's MJCF (with its model error) here and exit
 };
 
 [[noreturn]] void Usage(int code) {
@@ -65,6 +70,9 @@ struct Options {
       "               [--actuator-tau S] [--actuator-rate-limit NM_S] [--load-cell-noise NM]\n"
       "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--no-hold]\n"
       "               [--start-height M] [--seed N]\n"
+      "               [--profile ideal|realistic] [--payload KG,X,Y,Z|off] [--link-errors SEED|off]\n"
+      "               [--hydraulics on|off] [--joint-friction on|off] [--delay-cycles K]\n"
+      "               [--load-cell-bias NM] [--imu-bias G,A] [--write-model FILE]\n"
       "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
       "               [--lcm-truth [URL]] [--lcm-truth-every N]\n"
       "               [--summary FILE] [--fall-height M] [--rt-priority P] [--cpu N|auto]\n"
@@ -93,6 +101,21 @@ struct Options {
       "                         (default 0.40: HyQ's resting crouch, which the daemon stands up\n"
       "                         from; 0: the standing posture)\n"
       "  --seed N               sensor-noise seed (default 1)\n"
+      "  --profile P            the plant: ideal (default: the model, --actuator-tau lag) or\n"
+      "                         realistic (model error, HyQ's hydraulics with the boards' torque\n"
+      "                         loop, joint friction, 1-cycle delay, sensor biases; levels and\n"
+      "                         sources in docs/simulation.md). The flags below change one factor\n"
+      "                         of it, whatever their order:\n"
+      "  --payload KG,X,Y,Z|off a point mass on the trunk (kg; position in the trunk frame, m)\n"
+      "  --link-errors SEED|off per-link mass ±5 %%, CoM ±1 cm, inertia ±10 %% drawn from SEED\n"
+      "  --hydraulics on|off    HyQ's hydraulic actuators and torque loop instead of the lag\n"
+      "  --joint-friction on|off  Coulomb + viscous joint friction (realistic's levels)\n"
+      "  --delay-cycles K       set-points take effect K plant steps later (0..50)\n"
+      "  --load-cell-bias NM    per-joint load-cell offsets, uniform in ±NM, from --bias-seed\n"
+      "  --imu-bias G,A         gyro (rad/s) and accelerometer (m/s²) biases per axis, uniform in\n"
+      "                         ±G, ±A\n"
+      "  --bias-seed N          seed of the sensor biases (default 1)\n"
+      "  --write-model FILE     write the plant's MuJoCo model (MJCF, model error included) and exit\n"
       "  --fault T:KIND:TARGET[:ARG]  at simulated time T: silent|corrupt|drop|nan|bus-off|emcy;\n"
       "                         TARGET a device (lf_kfe, imu) or for bus-off a bus (rh); ARG\n"
       "                         frames (corrupt, drop), seconds (silent, bus-off), code (emcy).\n"
@@ -203,6 +226,25 @@ Options Parse(int argc, char** argv) {
       if (v.empty() || *end != '\0' || v[0] == '-') Bad(a, "an unsigned integer", v);
       o.robot.seed = s;
     } else if (a == "--fault") o.faults.push_back(value());
+    else if (a == "--profile") {
+      const std::string v = value();
+      if (v != "ideal" && v != "realistic") Bad(a, "a plant profile ideal or realistic", v);
+      o.profile = v;
+    } else if (a == "--payload" || a == "--link-errors" || a == "--hydraulics" ||
+               a == "--joint-friction" || a == "--delay-cycles" || a == "--load-cell-bias" ||
+               a == "--imu-bias" || a == "--bias-seed") {
+      // checked now (the error names the flag), applied after --profile whatever the order
+      const std::string flag(a), v = value();
+      hyq::sim::PlantProfile check;
+      try {
+        hyq::sim::ApplyProfileFlag(flag, v, &check);
+      } catch (const std::invalid_argument& e) {
+        std::fprintf(stderr, "%s: %s\n", kTool, e.what());
+        std::exit(2);
+      }
+      o.profile_overrides.push_back(
+          [flag, v](hyq::sim::PlantProfile* pp) { hyq::sim::ApplyProfileFlag(flag, v, pp); });
+    } else if (a == "--write-model") o.write_model = value();
     else if (a == "--truth") o.truth = value();
     else if (a == "--truth-every")
       o.truth_every = static_cast<int>(Number(a, value(), 1, "an integer >= 1"));
@@ -225,6 +267,8 @@ Options Parse(int argc, char** argv) {
       std::exit(2);
     }
   }
+  o.robot.profile = hyq::sim::ProfileByName(o.profile, "--profile");
+  for (const auto& f : o.profile_overrides) f(&o.robot.profile);
   return o;
 }
 
@@ -338,6 +382,21 @@ int Run(const Options& o) {
     if (!found) Bad("--interface", "a bus of " + o.config, bus);
   }
   const dynamics::Model model = dynamics::LoadModelFromUrdf(o.urdf);
+  if (!o.write_model.empty()) {
+    // the plant's model as MuJoCo gets it: the nominal URDF with the profile's model error
+    sim::PlantConfig pc = o.robot.plant;
+    pc.timestep_s = cfg.timing.cycle_period_s;
+    pc.imu_sensor = true;
+    o.robot.profile.ApplyTo(&pc);
+    const sim::Plant plant(model, pc);
+    std::ofstream f(o.write_model);
+    if (!(f << plant.mjcf())) throw std::runtime_error("--write-model: cannot write '" + o.write_model + "'");
+    if (!o.quiet)
+      std::fprintf(stderr, "%s: wrote the %s plant's model (%.3f kg) to %s\n", kTool,
+                   o.robot.profile.name.c_str(), sim::PerturbModel(model, pc.model_error).TotalMass(),
+                   o.write_model.c_str());
+    return 0;
+  }
   std::vector<std::unique_ptr<hal::CanChannel>> owned;
   std::vector<hal::CanChannel*> channels;
   for (std::size_t b = 0; b < cfg.buses.size(); ++b) {
@@ -349,6 +408,8 @@ int Run(const Options& o) {
     if (!o.quiet) std::fprintf(stderr, "%s: bus %-3s on %s\n", kTool, cfg.buses[b].name.c_str(), spec.c_str());
   }
   sim::SimulatedRobot robot(model, cfg, channels, o.robot);
+  if (!o.quiet && o.robot.profile.name != "ideal")
+    std::fprintf(stderr, "%s: plant profile %s\n", kTool, o.robot.profile.Json().c_str());
   for (const std::string& f : o.faults) {
     try {
       robot.ScheduleFault(sim::ParseFaultSpec(f, cfg));
@@ -443,6 +504,7 @@ int Run(const Options& o) {
     if (!s) throw std::runtime_error("--summary: cannot write '" + o.summary + "'");
     s.precision(9);
     s << "{\n  \"mode\": \"" << (o.lockstep ? "lockstep" : "realtime") << "\",\n"
+      << "  \"profile\": " << o.robot.profile.Json() << ",\n"
       << "  \"simulated_time_s\": " << robot.time_s() << ",\n"
       << "  \"steps\": " << c.steps << ",\n  \"held_steps\": " << c.held_steps << ",\n"
       << "  \"fell\": " << (robot.fell() ? "true" : "false") << ",\n"

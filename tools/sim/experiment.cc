@@ -89,7 +89,9 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
   pc.ground_mu = cfg.mu;
   pc.foot_mu = cfg.foot_mu;
   pc.patches = cfg.patches;
+  cfg.profile.ApplyTo(&pc);
   Plant plant(model, pc);
+  Actuation actuation(model, cfg.joints, cfg.profile, 0.0, 0.0, pc.timestep_s);
   servo::Reference ref = cfg.reference == servo::Reference::Kind::kTrot
                              ? servo::Reference::Trot(model, cfg.trot)
                          : cfg.reference == servo::Reference::Kind::kFigureEight
@@ -105,6 +107,7 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     for (int j = 0; j < 12; ++j) q0(7 + j) += cfg.initial_perturbation_rad * u(rng);
   }
   plant.Reset(q0, dynamics::VectorV::Zero());
+  actuation.Reset(q0.tail<12>());
 
   servo::ContactEnvironment env;
   for (int f = 0; f < 4; ++f) env.mu[f] = cfg.foot_mu[f] >= 0 ? cfg.foot_mu[f] : cfg.mu;
@@ -113,7 +116,7 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
   fc.enabled = true;
   servo::FrictionEstimator friction(fc);
   SettlingTracker settling;
-  servo::VectorJ tau_measured = servo::VectorJ::Zero();  // ideal load cells: last applied torque
+  servo::VectorJ tau_measured = servo::VectorJ::Zero();  // the load cells (Actuation::measured_Nm)
   double patch_err = 0, patch_slip = 0;
   long patch_slip_n = 0;
 
@@ -154,14 +157,16 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
       tau(j) = std::clamp(tau(j), -model.limits[j].effort_Nm, model.limits[j].effort_Nm);
     const std::array<double, 4> mu_true{plant.foot_friction(0), plant.foot_friction(1),
                                         plant.foot_friction(2), plant.foot_friction(3)};
-    plant.Step(tau);
-    tau_measured = tau;
+    actuation.Step(tau, q.tail<12>(), v.tail<12>());
+    plant.Step(actuation.applied_Nm());
+    tau_measured = actuation.measured_Nm();
 
     Sample s;
     s.t = t;
     s.q = q.tail<12>();
     s.q_ref = rs.joints.q;
     s.tau = tau;
+    s.tau_applied = actuation.applied_Nm();
     const auto contacts = plant.FootContacts();
     bool on_patch = false;
     double patch_slip_cycle = 0;

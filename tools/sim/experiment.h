@@ -10,6 +10,7 @@
 #include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
 #include "tools/sim/plant.h"
+#include "tools/sim/plant_profile.h"
 
 namespace hyq::sim {
 
@@ -37,6 +38,12 @@ struct ExperimentConfig {
   std::uint64_t seed = 1;                 // initial-state perturbation
   double initial_perturbation_rad = 0.0;  // random joint offsets at t = 0
   bool record_id_inputs = false;          // keep every cycle's ID problem (benchmarks, files)
+  /// How the plant differs from the model (issue 15; default ideal: the controller's torque is
+  /// applied as it is). The controller keeps the nominal model and the true state; its measured
+  /// torques (the friction estimator's input) are the load cells', bias included.
+  PlantProfile profile;
+  /// The HAL's joint calibrations (lever arms), needed when profile.hydraulics.
+  std::vector<hal::JointCalibration> joints;
 };
 
 /// Gains shared by every controller (the fairness rule of docs/experiments.md): PID uses them as
@@ -46,6 +53,7 @@ servo::ControllerConfig StandardController(servo::ControllerKind kind);
 struct Sample {
   double t;
   servo::VectorJ q, q_ref, tau;
+  servo::VectorJ tau_applied;            // what the plant applied (the actuators' output)
   std::array<Eigen::Vector3d, 4> contact_force_W;
   std::array<double, 4> slip_speed;      // tangential contact-point speed of stance feet, m/s
   std::array<bool, 4> stance_ref, touching;

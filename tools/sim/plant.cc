@@ -148,8 +148,57 @@ GroundPatch ParseGroundPatch(const std::string& text, const std::string& what) {
   return p;
 }
 
+double JointFrictionConfig::Torque(int joint, double qd) const noexcept {
+  if (!enabled) return 0.0;
+  const auto k = static_cast<std::size_t>(joint % dynamics::kJointsPerLeg);
+  return -(coulomb_Nm[k] * std::tanh(qd / band_rad_s) + viscous_Nm_s[k] * qd);
+}
+
+dynamics::Model PerturbModel(const dynamics::Model& nominal, const ModelErrorConfig& e) {
+  if (!(e.payload_kg >= 0) || !e.p_BoP_B.allFinite() || !(e.mass_rel >= 0 && e.mass_rel < 1) ||
+      !(e.com_m >= 0) || !(e.inertia_rel >= 0 && e.inertia_rel < 1))
+    throw std::invalid_argument("model error: expected payload >= 0 kg at a finite position, "
+                                "0 <= mass and inertia errors < 1, CoM error >= 0");
+  dynamics::Model m = nominal;
+  if (e.link_errors) {
+    // xorshift64* uniforms in [-1, 1): the same draws on every platform, in body order
+    std::uint64_t s = e.seed == 0 ? 0x9E3779B97F4A7C15ull : e.seed;
+    auto uniform = [&s] {
+      s ^= s >> 12;
+      s ^= s << 25;
+      s ^= s >> 27;
+      return 2.0 * static_cast<double>((s * 2685821657736338717ull) >> 11) * 0x1.0p-53 - 1.0;
+    };
+    for (dynamics::Body& b : m.bodies) {
+      dynamics::RigidBodyInertia& in = b.inertia;
+      in.mass *= 1.0 + e.mass_rel * uniform();
+      for (int i = 0; i < 3; ++i) in.p_BoBcm_B(i) += e.com_m * uniform();
+      // one factor for the whole tensor keeps it a physical inertia (triangle inequalities)
+      in.I_Bcm_B *= 1.0 + e.inertia_rel * uniform();
+    }
+  }
+  if (e.payload_kg > 0) {
+    // a point mass lumped into the trunk: combined CoM, parallel-axis theorem for both parts
+    dynamics::RigidBodyInertia& t = m.bodies[dynamics::kTrunk].inertia;
+    const double mt = t.mass, mp = e.payload_kg, mc = mt + mp;
+    const Eigen::Vector3d c = (mt * t.p_BoBcm_B + mp * e.p_BoP_B) / mc;
+    auto shift = [](double mass, const Eigen::Vector3d& d) {
+      return Eigen::Matrix3d(mass * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose()));
+    };
+    t.I_Bcm_B = t.I_Bcm_B + shift(mt, t.p_BoBcm_B - c) + shift(mp, e.p_BoP_B - c);
+    t.p_BoBcm_B = c;
+    t.mass = mc;
+  }
+  return m;
+}
+
 Plant::Plant(const dynamics::Model& model, const PlantConfig& config)
-    : mjcf_(MakeMjcf(model, config)), patches_(config.patches) {
+    : mjcf_(MakeMjcf(PerturbModel(model, config.model_error), config)),
+      patches_(config.patches),
+      friction_(config.joint_friction) {
+  if (friction_.enabled && !(friction_.band_rad_s > 0))
+    throw std::invalid_argument("joint friction: expected a velocity band > 0 rad/s, found " +
+                                std::to_string(friction_.band_rad_s));
   mjVFS vfs;
   mj_defaultVFS(&vfs);
   if (mj_makeEmptyFileVFS(&vfs, "hyq.xml", static_cast<int>(mjcf_.size())) != 0)
@@ -188,7 +237,12 @@ void Plant::Reset(const dynamics::VectorQ& q, const dynamics::VectorV& v) {
 }
 
 void Plant::Step(const dynamics::VectorJ& tau_Nm) {
-  for (int j = 0; j < dynamics::kNumJoints; ++j) d_->ctrl[j] = tau_Nm(j);
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    d_->ctrl[j] = tau_Nm(j);
+    // joint friction at the velocity the step starts from (explicit: b h / I << 1 for HyQ's
+    // links at h = 1 ms)
+    d_->qfrc_applied[6 + j] = friction_.Torque(j, d_->qvel[6 + j]);
+  }
   mj_step(m_, d_);
   ApplyPatches();
 }

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -30,6 +31,35 @@ struct GroundPatch {
 /// the form expected and what was found.
 GroundPatch ParseGroundPatch(const std::string& text, const std::string& what);
 
+/// Model error (issue 15): the plant's bodies differ from the model the controller uses.
+struct ModelErrorConfig {
+  /// A rigid point mass fixed to the trunk (kg; position in the trunk frame, m), lumped into the
+  /// trunk's inertia (parallel axis). 0 kg: none.
+  double payload_kg = 0.0;
+  Eigen::Vector3d p_BoP_B = Eigen::Vector3d::Zero();
+  /// Per-body errors, drawn uniformly from `seed` for every body (trunk and 12 links):
+  /// mass × (1 + U(−m, m)), each CoM coordinate + U(−c, c), rotational inertia × (1 + U(−i, i)).
+  bool link_errors = false;
+  std::uint64_t seed = 1;
+  double mass_rel = 0.05;
+  double com_m = 0.01;
+  double inertia_rel = 0.10;
+};
+
+/// The model with these errors applied (what the plant is built from; the controller keeps the
+/// nominal one). Deterministic in the seed on every platform (xorshift64*).
+dynamics::Model PerturbModel(const dynamics::Model& nominal, const ModelErrorConfig& e);
+
+/// Joint friction applied by the plant, per joint type (haa, hfe, kfe):
+///   τ_f = −(τ_c tanh(q̇ / v_s) + b q̇)   (Coulomb smoothed over |q̇| ≲ v_s, plus viscous)
+struct JointFrictionConfig {
+  bool enabled = false;
+  std::array<double, 3> coulomb_Nm{0.0, 0.0, 0.0};
+  std::array<double, 3> viscous_Nm_s{0.0, 0.0, 0.0};
+  double band_rad_s = 0.01;
+  double Torque(int joint, double qd_rad_s) const noexcept;
+};
+
 struct PlantConfig {
   double timestep_s = 1e-3;
   double ground_mu = 1.0;
@@ -41,6 +71,8 @@ struct PlantConfig {
   /// Adds MuJoCo's gyro and accelerometer at the IMU site (model.imu) for Plant::Imu(). Costs
   /// mj_rnePostConstraint per step (MuJoCo runs it for acceleration sensors); off by default.
   bool imu_sensor = false;
+  ModelErrorConfig model_error;       // the MuJoCo model is built from PerturbModel(model, this)
+  JointFrictionConfig joint_friction;
 };
 
 /// What an ideal IMU at model.imu measures, in the IMU frame F: angular velocity w_WF_F and
@@ -72,7 +104,8 @@ class Plant {
 
   /// State in the project's convention (docs/conventions.md; MuJoCo's qpos/qvel).
   void Reset(const dynamics::VectorQ& q, const dynamics::VectorV& v);
-  /// One step with these joint torques (clamped to the actuators' ±effort limit).
+  /// One step with these joint torques (clamped to the actuators' ±effort limit), plus the joint
+  /// friction (PlantConfig::joint_friction) at the velocity the step starts from.
   void Step(const dynamics::VectorJ& tau_Nm);
 
   dynamics::VectorQ q() const;
@@ -106,6 +139,7 @@ class Plant {
   std::array<int, 4> foot_geom_{}, foot_pair_{}, foot_body_{};
   std::array<double, 4> base_mu_{};
   std::vector<GroundPatch> patches_;
+  JointFrictionConfig friction_;
   void ApplyPatches();
   int floor_geom_ = -1;
   int gyro_adr_ = -1, accel_adr_ = -1;

@@ -53,8 +53,6 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
       config_(config),
       cfg_(cfg),
       period_ns_(std::llround(config.timing.cycle_period_s * 1e9)),
-      alpha_(cfg.actuator_tau_s > 0 ? -std::expm1(-config.timing.cycle_period_s / cfg.actuator_tau_s)
-                                    : 1.0),
       holding_(cfg.hold),
       min_base_height_m_(model.standing_base_height_m),
       rng_(cfg.seed == 0 ? 0x9E3779B97F4A7C15ull : cfg.seed) {
@@ -77,7 +75,17 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
   PlantConfig pc = cfg.plant;
   pc.timestep_s = config.timing.cycle_period_s;
   pc.imu_sensor = true;
-  plant_ = std::make_unique<Plant>(model, pc);
+  cfg.profile.ApplyTo(&pc);
+  try {
+    plant_ = std::make_unique<Plant>(model, pc);
+    actuation_ = std::make_unique<Actuation>(model, config.joints, cfg.profile, cfg.actuator_tau_s,
+                                             cfg.actuator_rate_limit_Nm_s,
+                                             config.timing.cycle_period_s);
+  } catch (const std::invalid_argument& e) {
+    throw hal::ConfigError(std::string("simulated robot: ") + e.what());
+  }
+  gyro_bias_ = cfg.gyro_bias_rad_s + cfg.profile.GyroBias();
+  accel_bias_ = cfg.accel_bias_m_s2 + cfg.profile.AccelBias();
   q_hold_ = model.StandingQ();
   if (cfg.start_height_m > 0.0) {
     // the resting posture: the standing feet's places, the base lowered, by the legs' IK
@@ -92,6 +100,7 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
     q_hold_.tail<dynamics::kNumJoints>() = s.joints.q;
   }
   plant_->Reset(q_hold_, dynamics::VectorV::Zero());
+  actuation_->Reset(q_hold_.tail<dynamics::kNumJoints>());
   R_BF_ = model.imu.R_BF;
   UpdateSensors();
 }
@@ -167,23 +176,24 @@ void SimulatedRobot::ApplyFaults() noexcept {
 
 void SimulatedRobot::Step() noexcept {
   ApplyFaults();
-  // actuators: saturation, then the first-order lag (1) and the rate limit
-  const double h = config_.timing.cycle_period_s;
+  // actuators: saturation, then (Actuation) the delay and the first-order lag (1) with its rate
+  // limit, or the hydraulics with the board's torque loop
   bool all_enabled = true, commanding = false;
   constexpr double kReleaseTorqueNm = 0.0;  // any non-zero set-point (1 mN·m resolution)
+  dynamics::VectorJ u;
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     const double limit = std::min(config_.joints[static_cast<std::size_t>(j)].torque_limit_Nm,
                                   model_.limits[static_cast<std::size_t>(j)].effort_Nm);
     all_enabled = all_enabled && emulator_->outputs_enabled(j);
     commanding = commanding || std::abs(emulator_->torque_setpoint_Nm(j)) > kReleaseTorqueNm;
-    const double u = std::clamp(emulator_->torque_setpoint_Nm(j), -limit, limit);
-    double d = alpha_ * (u - tau_applied_(j));
-    if (cfg_.actuator_rate_limit_Nm_s > 0) {
-      const double r = cfg_.actuator_rate_limit_Nm_s * h;
-      d = std::clamp(d, -r, r);
-    }
-    tau_applied_(j) += d;
+    u(j) = std::clamp(emulator_->torque_setpoint_Nm(j), -limit, limit);
   }
+  {
+    const dynamics::VectorQ q = plant_->q();
+    const dynamics::VectorV v = plant_->v();
+    actuation_->Step(u, q.tail<dynamics::kNumJoints>(), v.tail<dynamics::kNumJoints>());
+  }
+  tau_applied_ = actuation_->applied_Nm();
   // off the stand once every board is enabled AND the controller commands torque: a daemon in
   // STANDBY (enabled, 0 N·m) keeps the robot on its stand, as an operator would
   if (holding_ && all_enabled && commanding) holding_ = false;
@@ -221,7 +231,7 @@ void SimulatedRobot::UpdateSensors() noexcept {
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     double qj = q(7 + j);
     if (cfg_.encoder_noise_rad > 0) qj += cfg_.encoder_noise_rad * Gaussian();
-    double tau = tau_applied_(j);
+    double tau = actuation_->measured_Nm()(j);  // the actuator's output plus the load-cell bias
     if (cfg_.load_cell_noise_Nm > 0) tau += cfg_.load_cell_noise_Nm * Gaussian();
     tau_measured_(j) = tau;
     emulator_->SetJointState(j, qj, v(6 + j), tau);
@@ -234,8 +244,8 @@ void SimulatedRobot::UpdateSensors() noexcept {
   } else {
     r = plant_->Imu();
   }
-  r.gyro_rad_s += cfg_.gyro_bias_rad_s;
-  r.specific_force_m_s2 += cfg_.accel_bias_m_s2;
+  r.gyro_rad_s += gyro_bias_;
+  r.specific_force_m_s2 += accel_bias_;
   if (cfg_.gyro_noise_rad_s > 0)
     for (int i = 0; i < 3; ++i) r.gyro_rad_s(i) += cfg_.gyro_noise_rad_s * Gaussian();
   if (cfg_.accel_noise_m_s2 > 0)

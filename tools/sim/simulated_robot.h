@@ -3,7 +3,8 @@
 // the real robot (docs/simulation.md).
 //
 // Models, per 1 ms step h:
-//  - hydraulic actuator j: the board's set-point u (0 when its outputs are disabled) is clamped to
+//  - actuator j (tools/sim/plant_profile.h, Actuation; with the `realistic` profile HyQ's
+//    hydraulics and torque loop instead, after a transport delay): the board's set-point u (0 when its outputs are disabled) is clamped to
 //    the joint's torque limit, then the applied torque follows a first-order lag with time
 //    constant T, discretised exactly for a set-point held over the step (zero-order hold):
 //      tau[k+1] = tau[k] + (1 - exp(-h / T)) (u[k] - tau[k])                    (1)
@@ -47,12 +48,16 @@
 #include "servo/runtime/latency_histogram.h"
 #include "tools/sim/fault_spec.h"
 #include "tools/sim/plant.h"
+#include "tools/sim/plant_profile.h"
 
 namespace hyq::sim {
 
 struct SimulatedRobotConfig {
   PlantConfig plant;                      // timestep_s is taken from the HAL's cycle period
-  double actuator_tau_s = 0.005;          // T of eq. (1); 0 = ideal actuator
+  /// How the plant differs from the model (issue 15): model error, hydraulic actuators instead
+  /// of eq. (1), joint friction, delay, sensor biases. Default: ideal (none of them).
+  PlantProfile profile;
+  double actuator_tau_s = 0.005;          // T of eq. (1); 0 = ideal actuator; unused with hydraulics
   double actuator_rate_limit_Nm_s = 0.0;  // 0 = none
   double encoder_noise_rad = 0.0;         // σ before quantisation
   double load_cell_noise_Nm = 0.0;        // σ of the measured joint torque
@@ -149,6 +154,7 @@ class SimulatedRobot {
   const std::vector<FaultSpec>& faults() const noexcept { return faults_; }
   Plant& plant() noexcept { return *plant_; }
   const Plant& plant() const noexcept { return *plant_; }
+  const Actuation& actuation() const noexcept { return *actuation_; }
   hal::Emulator& emulator() noexcept { return *emulator_; }
   std::size_t num_buses() const noexcept { return channels_.size(); }
 
@@ -162,9 +168,10 @@ class SimulatedRobot {
   hal::HalConfig config_;
   SimulatedRobotConfig cfg_;
   std::int64_t period_ns_;
-  double alpha_;  // 1 - exp(-h / T)
   std::vector<std::unique_ptr<SyncCounter>> channels_;
   std::unique_ptr<Plant> plant_;
+  std::unique_ptr<Actuation> actuation_;
+  Eigen::Vector3d gyro_bias_, accel_bias_;  // the config's plus the profile's
   std::unique_ptr<hal::Emulator> emulator_;
   dynamics::VectorQ q_hold_;
   dynamics::VectorJ tau_applied_ = dynamics::VectorJ::Zero();
