@@ -142,7 +142,7 @@ std::string Resolve(const std::filesystem::path& base, const std::string& p) {
 
 void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig& c) {
   const YAML::Node n = Section(r, root, "controller");
-  r.Keys(n, "controller", {"kind", "gains", "two_stage"});
+  r.Keys(n, "controller", {"kind", "gains", "two_stage", "disturbance_observer"});
   auto& cc = c.controller;
   if (n["kind"].IsDefined()) {
     const std::string k = r.OneOf(n, "controller", "kind", {"pid", "noslip", "stage1", "two_stage", "pd_gravity"});
@@ -167,6 +167,17 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     if (g["pdg_kp"].IsDefined()) cc.pd_gravity.kp = PerJoint(r, g, gp, "pdg_kp", 0, kMaxKpTau, "N·m/rad");
     if (g["pdg_kd"].IsDefined()) cc.pd_gravity.kd = PerJoint(r, g, gp, "pdg_kd", 0, kMaxKdTau, "N·m·s/rad");
     if (g["pid_i_limit"].IsDefined()) cc.pid.i_limit = PerJoint(r, g, gp, "pid_i_limit", 0, 1000, "N·m");
+  }
+  if (n["disturbance_observer"].IsDefined()) {
+    const YAML::Node d = r.Map(n, "controller", "disturbance_observer");
+    const std::string dp = "controller.disturbance_observer";
+    r.Keys(d, dp, {"enabled", "bandwidth_hz", "max_force_N", "max_torque_Nm"});
+    auto& o = c.disturbance;
+    o.enabled = BoolOr(r, d, dp, "enabled", o.enabled);
+    // the low-pass must stay well below the loop's Nyquist rate
+    o.bandwidth_hz = Bounded(r, d, dp, "bandwidth_hz", o.bandwidth_hz, 0.05, 0.1 * c.rate_hz);
+    o.max_force_N = Bounded(r, d, dp, "max_force_N", o.max_force_N, 0.0, 2000.0);
+    o.max_torque_Nm = Bounded(r, d, dp, "max_torque_Nm", o.max_torque_Nm, 0.0, 1000.0);
   }
   if (n["two_stage"].IsDefined()) {
     const YAML::Node t = r.Map(n, "controller", "two_stage");
@@ -314,7 +325,7 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
     const YAML::Node n = Section(r, root, "telemetry");
     const std::string p = "telemetry";
     r.Keys(n, p, {"enabled", "lcm_url", "channel_prefix", "joint_state_every",
-                  "joint_torque_every", "base_state_every", "contact_every", "friction_every", "timing_every",
+                  "joint_torque_every", "base_state_every", "contact_every", "friction_every", "disturbance_every", "timing_every",
                   "health_every", "snapshot_queue_capacity", "event_queue_capacity",
                   "command_queue_capacity", "idle_wait_ms"});
     auto& s = c.telemetry;
@@ -341,6 +352,7 @@ void ReadRest(const Reader& r, const YAML::Node& root, const std::filesystem::pa
     s.base_state_every = every("base_state_every", s.base_state_every);
     s.contact_every = every("contact_every", s.contact_every);
     s.friction_every = every("friction_every", s.friction_every);
+    s.disturbance_every = every("disturbance_every", s.disturbance_every);
     s.timing_every = every("timing_every", s.timing_every);
     s.health_every = every("health_every", s.health_every);
     // queue capacities: powers of two

@@ -11,6 +11,7 @@
 #include "hal/hal_config.h"
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
+#include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/estimator.h"
 #include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
@@ -46,6 +47,7 @@ struct ServoConfig {
   ControllerConfig controller;
   std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};  // the upper bound with the estimator on
   FrictionEstimatorConfig friction;     // contact.friction_estimation
+  DisturbanceObserverConfig disturbance;  // controller.disturbance_observer (issue 15)
   Reference::Kind reference = Reference::Kind::kStand;
   TrotParams trot;
   FigureEightParams figure_eight;

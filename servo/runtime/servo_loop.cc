@@ -71,6 +71,7 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       controller_(std::make_unique<Controller>(model, ForClock(config.controller, config.clock))),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
       friction_(config.friction),
+      disturbance_(model, config.disturbance, config.period_s()),
       base_gains_(config.controller.feedback),
       command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
                        reference_.get(), config.safety.damp_on_bad_command} {
@@ -213,6 +214,7 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
 void ServoLoop::EnterActive() noexcept {
   t_ref_ = 0.0;
   controller_->Reset();  // no integral or warm start carried over from an earlier ACTIVE
+  disturbance_.Reset();
   active_time_ = 0.0;
   for (int j = 0; j < kNumJoints; ++j)
     q0_(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
@@ -269,7 +271,17 @@ void ServoLoop::RunController() noexcept {
     return;
   }
   EstimateFriction();
+  // the disturbance observer's trunk wrench corrects the model's h for this cycle's controller
+  // (h − d_b; issue 15), after the friction estimate took its forces from the nominal h
+  const bool correct = config_.disturbance.enabled;
+  if (correct) {
+    VectorJ tau_m;
+    const auto& joints = hal_.image().joints;
+    for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+    dyn_->bias.head<dynamics::kNumBaseDofs>() -= disturbance_.Update(*dyn_, v, tau_m, estimator_.stance());
+  }
   id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, id_env_, dt_, &out_);
+  if (correct) dyn_->bias.head<dynamics::kNumBaseDofs>() += disturbance_.wrench();
   if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
   if (FellBackOnDeadline(out_)) {
     ++stats_.controller_fallbacks_deadline;
@@ -455,6 +467,12 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
     for (int i = 0; i < 3; ++i) s.contact_force_N[f][static_cast<std::size_t>(i)] = F(i);
   }
   s.friction_enabled = config_.friction.enabled;
+  s.disturbance_enabled = config_.disturbance.enabled;
+  s.disturbance_held = !active || !config_.disturbance.enabled || disturbance_.held();
+  for (int i = 0; i < 3; ++i) {
+    s.disturbance_force_N[static_cast<std::size_t>(i)] = disturbance_.wrench()(i);
+    s.disturbance_torque_Nm[static_cast<std::size_t>(i)] = disturbance_.wrench()(3 + i);
+  }
   s.stage1_status = static_cast<std::uint8_t>(out_.stage1.status);
   s.stage2_status = static_cast<std::uint8_t>(out_.stage2.status);
   s.fallback = static_cast<std::uint8_t>(out_.fallback);

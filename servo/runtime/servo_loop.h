@@ -17,6 +17,7 @@
 #include "hal/hal.h"
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
+#include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/estimator.h"
 #include "servo/estimation/friction_estimator.h"
 #include "servo/reference/posture.h"
@@ -90,6 +91,7 @@ class ServoLoop {
   const Controller& controller() const noexcept { return *controller_; }
   const StateEstimator& estimator() const noexcept { return estimator_; }
   const FrictionEstimator& friction() const noexcept { return friction_; }
+  const DisturbanceObserver& disturbance() const noexcept { return disturbance_; }
   std::uint64_t events() const noexcept { return safety_.events(); }
   /// The run's first events (up to kFirstEvents) and last event, for the summary.
   std::span<const SafetyEvent> first_events() const noexcept {
@@ -159,6 +161,7 @@ class ServoLoop {
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
   ContactEnvironment env_;     // configured or commanded μ (the estimate's upper bound)
   FrictionEstimator friction_;
+  DisturbanceObserver disturbance_;
   ContactEnvironment id_env_;  // what the controller gets: env_, or the estimated μ
   FeedbackGains base_gains_;
   CommandTargets command_targets_;  // what a command may change (built once)

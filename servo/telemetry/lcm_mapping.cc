@@ -78,6 +78,17 @@ void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_contact_state* out) noe
   m.stage2_solve_us = s.stage2_solve_us;
 }
 
+void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_disturbance_estimate* out) noexcept {
+  hyq_lcm::lcmt_hyq_disturbance_estimate& m = *out;
+  m.utime = s.time_ns / 1000;
+  m.cycle = static_cast<std::int64_t>(s.cycle);
+  m.enabled = s.disturbance_enabled;
+  m.held = s.disturbance_held;
+  CopyArray(s.disturbance_force_N, &m.force_N);
+  CopyArray(s.disturbance_torque_Nm, &m.torque_Nm);
+  m.payload_kg = -s.disturbance_force_N[2] / 9.81;
+}
+
 void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_friction_estimate* out) noexcept {
   hyq_lcm::lcmt_hyq_friction_estimate& m = *out;
   m.utime = s.time_ns / 1000;

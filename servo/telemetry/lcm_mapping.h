@@ -6,6 +6,7 @@
 
 #include "hyq_lcm/lcmt_hyq_base_state.hpp"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
+#include "hyq_lcm/lcmt_hyq_disturbance_estimate.hpp"
 #include "hyq_lcm/lcmt_hyq_friction_estimate.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
@@ -22,6 +23,7 @@ void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_joint_torque* m) noexce
 void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_base_state* m) noexcept;
 void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_contact_state* m) noexcept;
 void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_friction_estimate* m) noexcept;
+void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_disturbance_estimate* m) noexcept;
 void ToLcm(const TelemetrySnapshot& s, hyq_lcm::lcmt_hyq_servo_timing* m) noexcept;
 /// The health message: the snapshot's bus and device health and the telemetry's own counters.
 void ToLcm(const TelemetrySnapshot& s, const TelemetryStats& counters,

@@ -80,7 +80,7 @@ struct Telemetry::Impl {
   bool running = false;
 
   // telemetry thread only: channel names, messages and the encode buffer, all built up front
-  std::string ch_joint_state, ch_joint_torque, ch_base_state, ch_contact, ch_friction, ch_timing,
+  std::string ch_joint_state, ch_joint_torque, ch_base_state, ch_contact, ch_friction, ch_disturbance, ch_timing,
       ch_health, ch_event;
   TelemetrySnapshot current;
   bool have_current = false;
@@ -90,6 +90,7 @@ struct Telemetry::Impl {
   hyq_lcm::lcmt_hyq_base_state base_state{};
   hyq_lcm::lcmt_hyq_contact_state contact{};
   hyq_lcm::lcmt_hyq_friction_estimate friction{};
+  hyq_lcm::lcmt_hyq_disturbance_estimate disturbance{};
   hyq_lcm::lcmt_hyq_servo_timing timing{};
   hyq_lcm::lcmt_hyq_health health{};
   hyq_lcm::lcmt_hyq_event event{};
@@ -163,6 +164,7 @@ Telemetry::Telemetry(const TelemetryConfig& config, const CommandChannelConfig& 
   m.ch_base_state = channel("BASE_STATE");
   m.ch_contact = channel("CONTACT");
   m.ch_friction = channel("FRICTION");
+  m.ch_disturbance = channel("DISTURBANCE");
   m.ch_timing = channel("TIMING");
   m.ch_health = channel("HEALTH");
   m.ch_event = channel("EVENT");
@@ -324,6 +326,7 @@ void Telemetry::Impl::PublishSnapshot(const TelemetrySnapshot& s) {
   publish(config.base_state_every, ch_base_state, &base_state);
   publish(config.contact_every, ch_contact, &contact);
   publish(config.friction_every, ch_friction, &friction);
+  publish(config.disturbance_every, ch_disturbance, &disturbance);
   publish(config.timing_every, ch_timing, &timing);
   if (Due(s.cycle, config.health_every)) PublishHealth(s);
 }

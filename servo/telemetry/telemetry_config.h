@@ -26,6 +26,7 @@ struct TelemetryConfig {
   std::uint32_t contact_every = 1;       // lcmt_hyq_contact_state on <prefix>CONTACT
   std::uint32_t timing_every = 1;        // lcmt_hyq_servo_timing  on <prefix>TIMING
   std::uint32_t friction_every = 1;      // lcmt_hyq_friction_estimate on <prefix>FRICTION
+  std::uint32_t disturbance_every = 10;  // lcmt_hyq_disturbance_estimate on <prefix>DISTURBANCE
   std::uint32_t health_every = 100;      // lcmt_hyq_health        on <prefix>HEALTH (+ once at Stop)
   std::size_t snapshot_queue_capacity = 1024;  // power of two; 1 s of cycles at 1 kHz
   std::size_t event_queue_capacity = 256;      // power of two, separate from snapshots

@@ -63,6 +63,11 @@ struct TelemetrySnapshot {
   std::array<std::uint8_t, kNumFeet> foot_loaded{}, foot_slipping{};
   std::array<std::uint32_t, kNumFeet> slips{}, footfalls{};
 
+  // the trunk's disturbance observer (servo/estimation/disturbance_observer.h)
+  bool disturbance_enabled = false, disturbance_held = true;
+  std::array<double, 3> disturbance_force_N{};     // world
+  std::array<double, 3> disturbance_torque_Nm{};   // base frame
+
   // timing and deadline
   CycleTiming timing;
   std::uint64_t deadline_misses = 0;    // cycles whose work overran the budget

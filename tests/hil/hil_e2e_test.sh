@@ -69,7 +69,7 @@ PY
 decode_log() {
   "$build/tools/hyq-lcm-export/hyq-lcm-export" "$out/telemetry.lcmlog" "$out/csv" \
     || fail "the LCM log has undecodable messages (hyq-lcm-export)"
-  for ch in JOINT_STATE JOINT_TORQUE BASE_STATE CONTACT FRICTION TIMING HEALTH EVENT; do
+  for ch in JOINT_STATE JOINT_TORQUE BASE_STATE CONTACT FRICTION DISTURBANCE TIMING HEALTH EVENT; do
     [[ -s "$out/csv/HYQ_$ch.csv" ]] || fail "no HYQ_$ch messages in the LCM log"
   done
 }

@@ -7,7 +7,7 @@
 # What is checked is what lcm-spy itself shows: a Java agent (SpyTableProbe.java, compiled here and
 # loaded into hyq-spy's JVM through JDK_JAVA_OPTIONS) reads lcm-spy's channel table on the Swing
 # thread after the run. For each HYQ_* channel (JOINT_STATE, JOINT_TORQUE, BASE_STATE, CONTACT,
-# FRICTION, TIMING, HEALTH, EVENT) and for every channel lcm-logger recorded in the same run: the row exists,
+# FRICTION, DISTURBANCE, TIMING, HEALTH, EVENT) and for every channel lcm-logger recorded in the same run: the row exists,
 # its Type is the expected hyq_lcm class (lcm-spy shows "?? <fingerprint>" for an unknown type),
 # Num Msgs > 0, Undecodable = 0; and no row of the table at all is unknown or has decode errors.
 # Artefacts: ARTIFACT_DIR/lcm_spy.png (screenshot of the Xvfb screen), lcm_spy_table.tsv, the logs.
@@ -119,6 +119,7 @@ expected = {"HYQ_JOINT_STATE": "lcmt_hyq_joint_state", "HYQ_JOINT_TORQUE": "lcmt
             "HYQ_BASE_STATE": "lcmt_hyq_base_state", "HYQ_CONTACT": "lcmt_hyq_contact_state",
             "HYQ_TIMING": "lcmt_hyq_servo_timing", "HYQ_HEALTH": "lcmt_hyq_health",
             "HYQ_FRICTION": "lcmt_hyq_friction_estimate",
+            "HYQ_DISTURBANCE": "lcmt_hyq_disturbance_estimate",
             "HYQ_EVENT": "lcmt_hyq_event"}
 # LCM_SELF_TEST is liblcm-java's own start-up probe ("lcm self test" bytes, no type): lcm-spy's
 # LCM instance sends it to itself once. It is not telemetry; it is shown but not judged.

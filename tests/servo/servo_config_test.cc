@@ -152,6 +152,13 @@ TEST(ServoConfigYaml, EveryGainKeyReachesControllerConfig) {
     pid_i_limit: 90
     pdg_kp: 650
     pdg_kd: 17
+  disturbance_observer:
+    enabled: true
+    bandwidth_hz: 5
+    max_force_N: 250
+    max_torque_Nm: 80
+telemetry:
+  disturbance_every: 7
 )", "test.yaml", kConfigDir);
   const servo::ControllerConfig& k = c.controller;
   EXPECT_EQ(k.kind, servo::ControllerKind::kPdGravity);
@@ -165,6 +172,12 @@ TEST(ServoConfigYaml, EveryGainKeyReachesControllerConfig) {
   EXPECT_DOUBLE_EQ(k.pid.i_limit(3), 90.0);
   EXPECT_DOUBLE_EQ(k.pd_gravity.kp(7), 650.0);
   EXPECT_DOUBLE_EQ(k.pd_gravity.kd(7), 17.0);
+  EXPECT_TRUE(c.disturbance.enabled);
+  EXPECT_DOUBLE_EQ(c.disturbance.bandwidth_hz, 5.0);
+  EXPECT_DOUBLE_EQ(c.disturbance.max_force_N, 250.0);
+  EXPECT_DOUBLE_EQ(c.disturbance.max_torque_Nm, 80.0);
+  EXPECT_EQ(c.telemetry.disturbance_every, 7u);
+  EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").disturbance.enabled);
   // pd_gravity without its own position gain is refused by name
   try {
     (void)config::ParseServoConfig(robot + "controller:\n  kind: pd_gravity\n", "test.yaml", kConfigDir);

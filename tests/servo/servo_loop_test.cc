@@ -382,9 +382,14 @@ TEST(ServoLoop, StandsUpAfterEnableAndSitsDownBeforeTheStop) {
 
 TEST(ServoLoop, FullCyclesDoNotTouchTheHeap) {
   HYQ_REQUIRE_HEAP_HOOKS();
-  for (const auto kind : {ControllerKind::kTwoStageId, ControllerKind::kNoSlipId, ControllerKind::kPid}) {
+  for (const auto kind : {ControllerKind::kTwoStageId, ControllerKind::kNoSlipId, ControllerKind::kPid,
+                          ControllerKind::kPdGravity}) {
     ServoConfig cfg = ActiveConfig();
     cfg.controller.kind = kind;
+    cfg.controller.pd_gravity = {cfg.controller.pid.kp, cfg.controller.pid.kd};
+    cfg.controller.feedback.ki_tau.setConstant(100.0);  // the ID kinds' integral (issue 15)
+    cfg.controller.feedback.i_limit_tau.setConstant(20.0);
+    cfg.disturbance.enabled = true;  // and the trunk's disturbance observer (issue 15)
     cfg.reference = Reference::Kind::kTrot;
     cfg.friction.enabled = true;  // the friction estimator in the cycle too (issue 18)
     cfg.stand_up_s = 0.3;         // and the stand-up and sit-down (issue 19)

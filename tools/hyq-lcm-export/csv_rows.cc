@@ -10,6 +10,7 @@
 #include "hyq_lcm/lcmt_hyq_command.hpp"
 #include "hyq_lcm/lcmt_hyq_signed_command.hpp"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
+#include "hyq_lcm/lcmt_hyq_disturbance_estimate.hpp"
 #include "hyq_lcm/lcmt_hyq_friction_estimate.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
@@ -118,6 +119,15 @@ void Visit(const hyq_lcm::lcmt_hyq_contact_state& m, Csv& c) {
   c.Field("stage2_iterations", "count", m.stage2_iterations);
   c.Field("stage1_solve_us", "us", m.stage1_solve_us);
   c.Field("stage2_solve_us", "us", m.stage2_solve_us);
+}
+void Visit(const hyq_lcm::lcmt_hyq_disturbance_estimate& m, Csv& c) {
+  c.Field("utime", "us", m.utime);
+  c.Field("cycle", "count", m.cycle);
+  c.Field("enabled", "bool", m.enabled != 0);
+  c.Field("held", "bool", m.held != 0);
+  c.Array("force_N", "N", m.force_N, kXyz);
+  c.Array("torque_Nm", "N*m", m.torque_Nm, kXyz);
+  c.Field("payload_kg", "kg", m.payload_kg);
 }
 void Visit(const hyq_lcm::lcmt_hyq_friction_estimate& m, Csv& c) {
   c.Field("utime", "us", m.utime);
@@ -347,12 +357,13 @@ RowType Type(const char* name) {
 }  // namespace
 
 const RowType* FindRowType(std::span<const std::uint8_t> data) {
-  static const std::array<RowType, 11> kTypes = {
+  static const std::array<RowType, 12> kTypes = {
       Type<hyq_lcm::lcmt_hyq_joint_state>("lcmt_hyq_joint_state"),
       Type<hyq_lcm::lcmt_hyq_joint_torque>("lcmt_hyq_joint_torque"),
       Type<hyq_lcm::lcmt_hyq_base_state>("lcmt_hyq_base_state"),
       Type<hyq_lcm::lcmt_hyq_contact_state>("lcmt_hyq_contact_state"),
       Type<hyq_lcm::lcmt_hyq_friction_estimate>("lcmt_hyq_friction_estimate"),
+      Type<hyq_lcm::lcmt_hyq_disturbance_estimate>("lcmt_hyq_disturbance_estimate"),
       Type<hyq_lcm::lcmt_hyq_servo_timing>("lcmt_hyq_servo_timing"),
       Type<hyq_lcm::lcmt_hyq_sim_truth>("lcmt_hyq_sim_truth"),
       Type<hyq_lcm::lcmt_hyq_health>("lcmt_hyq_health"),

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "servo/control/controller.h"
+#include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
 #include "tools/sim/plant.h"
@@ -35,6 +36,9 @@ struct ExperimentConfig {
   MuSource mu_source = MuSource::kAssumed;
   servo::FrictionEstimatorConfig friction;  // for kEstimated (enabled is implied)
   servo::ControllerConfig controller;
+  /// The trunk's disturbance observer (issue 15): its estimate corrects the model's h for the
+  /// controller (the ID kinds and PD + g); stance from the plant's foot contacts.
+  servo::DisturbanceObserverConfig disturbance;
   std::uint64_t seed = 1;                 // initial-state perturbation
   double initial_perturbation_rad = 0.0;  // random joint offsets at t = 0
   bool record_id_inputs = false;          // keep every cycle's ID problem (benchmarks, files)
@@ -64,6 +68,7 @@ struct Sample {
   std::uint8_t stage1_status, stage2_status, fallback;
   std::array<double, 4> mu_true, mu_control, mu_estimate;  // plant, Stage I, estimator (or NaN)
   std::array<bool, 4> slipping;          // the estimator's slip flag
+  Eigen::Matrix<double, 6, 1> disturbance = Eigen::Matrix<double, 6, 1>::Zero();  // d_b (observer on)
 };
 
 struct ExperimentResult {
