@@ -65,6 +65,18 @@ def config_for(out_dir, build, ctrl, gains):
     return p
 
 
+def short_why(bad):
+    """The stops of unstable runs, briefly: the fault reasons, a fall, a missing summary."""
+    why = set()
+    for x in bad:
+        why.update(f for f in x.get("faults", []) if f != "damping_done")
+        if x.get("fell"):
+            why.add("fell")
+        if "error" not in x:
+            why.add("no summary")
+    return ", ".join(sorted(why)) or f"exit {bad[0]['exit']}"
+
+
 def fmt(xs):
     xs = [x for x in xs if x is not None and not math.isnan(x)]
     if not xs:
@@ -84,6 +96,8 @@ def main():
     ap.add_argument("--controllers", default=",".join(CTRLS), help=f"default: {','.join(CTRLS)}")
     ap.add_argument("--quick", action="store_true", help="seed 1 only, trot only")
     ap.add_argument("--build", default=os.path.join(HERE, "build", "ci"))
+    ap.add_argument("--tables-only", action="store_true",
+                    help="no runs: the tables and the figure again from DIR/results.json")
     a = ap.parse_args()
     try:
         seeds = [int(s) for s in a.seeds.split(",")]
@@ -107,6 +121,9 @@ def main():
         return seeds if v in SEEDED else seeds[:1]
     runs = [(v, r, mu, c, s) for v in variants for r in refs for mu in mus for c in ctrls for s in seeds_of(v)]
     results, t0 = {"gains": gains, "variants": {v: VARIANTS[v] for v in variants}, "runs": {}}, time.time()
+    if a.tables_only:
+        results = json.load(open(os.path.join(a.out, "results.json")))
+        runs = []
     for k, (v, r, mu, c, s) in enumerate(runs):
         name = f"{v}_{r}_mu{mu}_{c}_s{s}"
         d = os.path.join(a.out, "runs", name)
@@ -120,14 +137,14 @@ def main():
         err = f"{res['error']:.4f} rad" if "error" in res else "-"
         print(f"[{k + 1}/{len(runs)}, ~{eta:.0f} s left] {name}: {err}"
               f"{'' if res['stable'] else '  ' + res.get('why', '')}", flush=True)
-    json.dump(results, open(os.path.join(a.out, "results.json"), "w"), indent=1)
+    if runs:
+        json.dump(results, open(os.path.join(a.out, "results.json"), "w"), indent=1)
     L = []
     for v in variants:
         for mu in mus:
             L.append(f"\n### {v} plant, mu = {mu} (mean tracking error over ACTIVE, rad: mean ± sd over seeds {','.join(map(str, seeds_of(v)))}; hyq-sim {' '.join(VARIANTS[v]) or 'defaults'})\n")
-            ts = "two-stage + DOB" if "two_stage" + DOB in ctrls else "two-stage"
-            L.append("| scenario | " + " | ".join(ctrls) + f" | {ts} vs PID | {ts} vs PD + g |")
-            L.append("|---|" + "---|" * (len(ctrls) + 2))
+            L.append("| scenario | " + " | ".join(ctrls) + " | two-stage vs PID | two-stage vs PD + g | two-stage + DOB vs two-stage |")
+            L.append("|---|" + "---|" * (len(ctrls) + 3))
             for r in refs:
                 cells, means = [], {}
                 for c in ctrls:
@@ -136,13 +153,11 @@ def main():
                     bad = [x for x in rs if not x["stable"]]
                     means[c] = statistics.mean([e for e in errs if not math.isnan(e)]) if any(
                         not math.isnan(e) for e in errs) else float("nan")
-                    cells.append(fmt(errs) + (f" ({len(bad)} of {len(rs)} unstable: " +
-                                              "; ".join(sorted({x.get('why', '') for x in bad})) + ")" if bad else ""))
+                    cells.append(fmt(errs) + (f" ({len(bad)} of {len(rs)} unstable: " + short_why(bad) + ")" if bad else ""))
                 rel = []
-                best = "two_stage" + DOB if "two_stage" + DOB in means else "two_stage"
-                for other in ("pid", "pd_gravity"):
-                    if best in means and other in means and means[other] > 0:
-                        rel.append(f"{100.0 * (means[best] - means[other]) / means[other]:+.0f} %")
+                for a_, b_ in (("two_stage", "pid"), ("two_stage", "pd_gravity"), ("two_stage" + DOB, "two_stage")):
+                    if a_ in means and b_ in means and means[b_] > 0:
+                        rel.append(f"{100.0 * (means[a_] - means[b_]) / means[b_]:+.0f} %")
                     else:
                         rel.append("-")
                 L.append(f"| {r} | " + " | ".join(cells) + " | " + " | ".join(rel) + " |")

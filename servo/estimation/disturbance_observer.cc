@@ -21,8 +21,7 @@ void DisturbanceObserver::Reset() noexcept {
 
 const DisturbanceObserver::Vector6d& DisturbanceObserver::Update(
     const dynamics::CycleDynamics& dyn, const dynamics::VectorV& v,
-    const dynamics::VectorJ& tau_measured_Nm,
-    const std::array<bool, dynamics::kNumFeet>& stance) noexcept {
+    const dynamics::VectorJ& tau_measured_Nm) noexcept {
   constexpr int nb = dynamics::kNumBaseDofs;
   if (!started_) {  // no v̇ yet: the filter starts at the first residual
     v_prev_ = v;
@@ -38,11 +37,9 @@ const DisturbanceObserver::Vector6d& DisturbanceObserver::Update(
     return d_b_;
   }
   e_ += alpha_ * (raw - e_);
-  // the stance feet's forces from their legs' rows, the rest on the trunk
+  // every foot's force from its leg's rows, the rest on the trunk
   Vector6d d = e_.head<nb>();
-  int feet = 0;
   for (int f = 0; f < dynamics::kNumFeet; ++f) {
-    if (!stance[static_cast<std::size_t>(f)]) continue;
     dynamics::FootJacobian J;
     Eigen::Vector3d unused;
     dynamics::ContactPointJacobian(model_, dyn.feet, f, Eigen::Vector3d::UnitZ(), &J, &unused);
@@ -55,11 +52,6 @@ const DisturbanceObserver::Vector6d& DisturbanceObserver::Update(
     }
     const Eigen::Vector3d force = lu.solve(e_.segment<3>(col));
     d.noalias() -= J.leftCols<nb>().transpose() * force;
-    ++feet;
-  }
-  if (feet < 2) {  // a flight phase or one foot: the trunk's rows say little about the rest
-    held_ = true;
-    return d_b_;
   }
   for (int k = 0; k < 3; ++k) {
     d_b_(k) = std::clamp(d(k), -config_.max_force_N, config_.max_force_N);

@@ -7,14 +7,17 @@
 //   e = M v̇ + h − Sᵀ τ_m   (= Σ_stance J_fᵀ f_f + d: contact forces plus the disturbance),
 // low-passed (first order at bandwidth_hz; v̇ by the difference of successive v inside the filter,
 // which is the generalized-momentum observer's transfer function K/(s + K) of e with M taken as
-// constant over a cycle). The stance feet's forces come from their legs' rows (3 × 3, the leg's
-// own disturbance taken as zero: it cannot be told apart from the foot's force), J_f the Jacobian
-// of the contact point under the foot's sphere on flat ground (where the ground pushes):
-//   f_f = J_f,legᵀ⁻¹ e_leg(f),   d_b = e_b − Σ_stance J_f,bᵀ f_f,
+// constant over a cycle). Every foot's force comes from its leg's rows (3 × 3, the leg's own
+// disturbance taken as zero: it cannot be told apart from the foot's force), J_f the Jacobian of
+// the contact point under the foot's sphere on flat ground (where the ground pushes):
+//   f_f = J_f,legᵀ⁻¹ e_leg(f),   d_b = e_b − Σ_f J_f,bᵀ f_f,
 // d_b being the disturbance in the six base rows (the generalized force of v's base part). The
-// controller's dynamics then use h − d_b in those rows. The estimate is clamped to max_force_N /
-// max_torque_Nm (a bound on what a failed sensor can inject) and frozen (held) while fewer than
-// two feet are in stance or a leg's Jacobian is singular.
+// controller's dynamics then use h − d_b in those rows. All four legs, not only those a stance
+// detector calls loaded: a leg in the air has e_leg ≈ 0 (its force estimate is ≈ 0, or its own
+// model error), while a foot misclassified around touchdown or lift-off put its whole ground
+// force into d_b (measured: ±300 N spikes in a trot with the state estimator's stance). The
+// estimate is clamped to max_force_N / max_torque_Nm (a bound on what a failed sensor can
+// inject) and frozen (held) while a leg's Jacobian is singular or the residual is not finite.
 // Source: De Luca & Mattone, "Sensorless robot collision detection and hybrid force/motion
 // control" (ICRA 2005), the generalized-momentum residual; for legged robots with the stance
 // legs' rows giving the contact forces, e.g. Bledt et al., "Contact model fusion for event-based
@@ -46,10 +49,9 @@ class DisturbanceObserver {
   DisturbanceObserver(const dynamics::Model& model, const DisturbanceObserverConfig& config, double dt);
 
   /// One cycle at the measured state: `dyn` = ComputeCycleDynamics(q, v), the joint torques the
-  /// load cells measured, the state estimator's stance. Returns the current estimate d_b.
+  /// load cells measured. Returns the current estimate d_b.
   const Vector6d& Update(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& v,
-                         const dynamics::VectorJ& tau_measured_Nm,
-                         const std::array<bool, dynamics::kNumFeet>& stance) noexcept;
+                         const dynamics::VectorJ& tau_measured_Nm) noexcept;
 
   /// Forgets everything (on each entry into ACTIVE): the next Update starts the filter.
   void Reset() noexcept;

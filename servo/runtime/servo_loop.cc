@@ -278,7 +278,7 @@ void ServoLoop::RunController() noexcept {
     VectorJ tau_m;
     const auto& joints = hal_.image().joints;
     for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
-    dyn_->bias.head<dynamics::kNumBaseDofs>() -= disturbance_.Update(*dyn_, v, tau_m, estimator_.stance());
+    dyn_->bias.head<dynamics::kNumBaseDofs>() -= disturbance_.Update(*dyn_, v, tau_m);
   }
   id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, id_env_, dt_, &out_);
   if (correct) dyn_->bias.head<dynamics::kNumBaseDofs>() += disturbance_.wrench();

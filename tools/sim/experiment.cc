@@ -118,7 +118,6 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
   SettlingTracker settling;
   servo::VectorJ tau_measured = servo::VectorJ::Zero();  // the load cells (Actuation::measured_Nm)
   servo::DisturbanceObserver dob(model, cfg.disturbance, pc.timestep_s);
-  std::array<bool, 4> touching{};  // the feet in contact after the last step (the observer's stance)
   double patch_err = 0, patch_slip = 0;
   long patch_slip_n = 0;
 
@@ -151,7 +150,7 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
         for (std::size_t f = 0; f < 4; ++f) env.mu[f] = friction.feet()[f].mu_control;
       }
       if (cfg.disturbance.enabled)
-        dyn->bias.head<dynamics::kNumBaseDofs>() -= dob.Update(*dyn, v, tau_measured, touching);
+        dyn->bias.head<dynamics::kNumBaseDofs>() -= dob.Update(*dyn, v, tau_measured);
       (void)ctl.Compute(*dyn, q, v, rs.joints, env, dt, &out);
       tau = out.tau_Nm;
       if (cfg.record_id_inputs) r.id_inputs.push_back(ctl.last_input());
@@ -197,7 +196,6 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     }
     s.disturbance = dob.wrench();
     for (int f = 0; f < 4; ++f) {
-      touching[static_cast<std::size_t>(f)] = contacts[f].touching;
       s.contact_force_W[f] = contacts[f].force_W;
       s.touching[f] = contacts[f].touching;
       s.stance_ref[f] = rs.joints.stance[f];

@@ -37,7 +37,7 @@ struct ExperimentConfig {
   servo::FrictionEstimatorConfig friction;  // for kEstimated (enabled is implied)
   servo::ControllerConfig controller;
   /// The trunk's disturbance observer (issue 15): its estimate corrects the model's h for the
-  /// controller (the ID kinds and PD + g); stance from the plant's foot contacts.
+  /// controller (the ID kinds and PD + g).
   servo::DisturbanceObserverConfig disturbance;
   std::uint64_t seed = 1;                 // initial-state perturbation
   double initial_perturbation_rad = 0.0;  // random joint offsets at t = 0
