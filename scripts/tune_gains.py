@@ -141,6 +141,16 @@ def run(build, out, ctrl, cfg_path, sim_args, reference="trot", mu=0.1, duration
     return res
 
 
+def evaluate(a, ctrl, g, name):
+    """One run of the tuning scenario with gains g, in DIR/runs/NAME."""
+    d = os.path.join(a.out, "runs", name)
+    os.makedirs(d, exist_ok=True)
+    cfg = os.path.join(d, "servo.yaml")
+    with open(cfg, "w") as f:
+        f.write(shipped_sim_config(a.build, gains_yaml(ctrl, g)))
+    return run(a.build, d, ctrl, cfg, ["--seed", "1"] + a.sim_arg)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0],
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
@@ -170,12 +180,7 @@ def main():
     for ctrl in ctrls:
         rows = []
         for k, g in enumerate(candidates(ctrl, a.budget)):
-            d = os.path.join(a.out, "runs", f"{ctrl}_{k:02d}")
-            os.makedirs(d, exist_ok=True)
-            cfg = os.path.join(d, "servo.yaml")
-            with open(cfg, "w") as f:
-                f.write(shipped_sim_config(a.build, gains_yaml(ctrl, g)))
-            r = run(a.build, d, ctrl, cfg, ["--seed", "1"] + a.sim_arg)
+            r = evaluate(a, ctrl, g, f"{ctrl}_{k:02d}")
             rows.append({"gains": g, **r})
             done += 1
             eta = (time.time() - t0) / done * (total - done)
@@ -185,12 +190,7 @@ def main():
         best = None
         for k, r in enumerate(sorted([r for r in rows if r["stable"]], key=lambda r: r["error"])):
             g = {p: round(v * MARGIN, 1) for p, v in r["gains"].items()}
-            d = os.path.join(a.out, "runs", f"{ctrl}_margin_{k:02d}")
-            os.makedirs(d, exist_ok=True)
-            cfg = os.path.join(d, "servo.yaml")
-            with open(cfg, "w") as f:
-                f.write(shipped_sim_config(a.build, gains_yaml(ctrl, g)))
-            m = run(a.build, d, ctrl, cfg, ["--seed", "1"] + a.sim_arg)
+            m = evaluate(a, ctrl, g, f"{ctrl}_margin_{k:02d}")
             r["margin"] = {"gains": g, **m}
             print(f"  {ctrl} {r['gains']} x{MARGIN}: " + ("stable" if m["stable"] else "UNSTABLE: " + m.get("why", "")), flush=True)
             if m["stable"]:

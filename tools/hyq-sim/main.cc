@@ -153,16 +153,6 @@ double Number(std::string_view flag, const std::string& v, double min, std::stri
   return x;
 }
 
-std::vector<std::string> Split(const std::string& s) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  for (;;) {
-    const std::size_t c = s.find(',', start);
-    out.push_back(s.substr(start, c - start));
-    if (c == std::string::npos) return out;
-    start = c + 1;
-  }
-}
 
 Options Parse(int argc, char** argv) {
   Options o;
@@ -189,7 +179,7 @@ Options Parse(int argc, char** argv) {
     else if (a == "--mu") o.robot.plant.ground_mu = Number(a, value(), 0, "a friction coefficient >= 0");
     else if (a == "--foot-mu") {
       const std::string v = value();
-      const auto p = Split(v);
+      const auto p = hyq::sim::SplitCommas(v);
       if (p.size() != 4) Bad(a, "four comma-separated coefficients A,B,C,D", v);
       for (std::size_t f = 0; f < 4; ++f)
         o.robot.plant.foot_mu[f] = Number(a, p[f], -1e9, "four numbers A,B,C,D");
@@ -208,7 +198,7 @@ Options Parse(int argc, char** argv) {
     else if (a == "--encoder-noise") o.robot.encoder_noise_rad = Number(a, value(), 0, "rad >= 0");
     else if (a == "--imu-noise") {
       const std::string v = value();
-      const auto p = Split(v);
+      const auto p = hyq::sim::SplitCommas(v);
       if (p.size() > 2) Bad(a, "GYRO[,ACCEL] (rad/s, m/s²)", v);
       o.robot.gyro_noise_rad_s = Number(a, p[0], 0, "GYRO[,ACCEL] >= 0");
       if (p.size() == 2) o.robot.accel_noise_m_s2 = Number(a, p[1], 0, "GYRO[,ACCEL] >= 0");

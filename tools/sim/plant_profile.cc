@@ -84,16 +84,6 @@ std::uint64_t FlagSeed(std::string_view flag, const std::string& v, const std::s
   return s;
 }
 
-std::vector<std::string> SplitCommas(const std::string& s) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  for (;;) {
-    const std::size_t c = s.find(',', start);
-    out.push_back(s.substr(start, c - start));
-    if (c == std::string::npos) return out;
-    start = c + 1;
-  }
-}
 
 }  // namespace
 
@@ -276,6 +266,17 @@ void Actuation::Step(const dynamics::VectorJ& u, const dynamics::VectorJ& q,
       out = applied_(j);
     }
     measured_(j) = out + bias_[static_cast<std::size_t>(j)];
+  }
+}
+
+std::vector<std::string> SplitCommas(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t c = s.find(',', start);
+    out.push_back(s.substr(start, c - start));
+    if (c == std::string::npos) return out;
+    start = c + 1;
   }
 }
 

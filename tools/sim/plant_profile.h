@@ -19,6 +19,7 @@
 #include <span>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "dynamics/model.h"
 #include "hal/calibration.h"
@@ -67,6 +68,9 @@ PlantProfile ProfileByName(std::string_view name, const std::string& what);
 /// another flag; throws std::invalid_argument naming the flag, what was expected and what was
 /// found.
 bool ApplyProfileFlag(std::string_view flag, const std::string& value, PlantProfile* p);
+
+/// "a,b,,c" → {"a", "b", "", "c"} (the command-line flags' lists).
+std::vector<std::string> SplitCommas(const std::string& s);
 
 /// The actuation path from the set-points to the torque the plant applies, and the torque the
 /// load cells report: delay (a ring of k + 1 slots), then per joint either the hydraulic
