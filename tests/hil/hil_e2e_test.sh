@@ -83,9 +83,10 @@ decode_log() {
 
 # stalled_by_the_machine RC DURATION: true when the run broke the trot's timing checks (stopped
 # for its deadline policy, more than 1 % of the cycles over the deadline, or a fallback on the
-# QP time budget) with a cycle or a QP over 2 ms, far past anything the controller takes itself
-# (its QP stops at its 400 us budget): the machine stalled the thread (seen on the shared 2-core
-# VMs, 5-15 ms, in bursts while the host steals time), which says nothing about the run's
+# QP time budget) with a cycle or a QP over 1 ms (the whole period; the cycle's own work is at
+# most ~0.5 ms, its QP stopping at its 400 us budget): the machine stalled the thread (seen on
+# the shared 2-core VMs, 5-15 ms in bursts while the host steals time, and a lone 1.8 ms cycle
+# beside a 642 us QP on CI), which says nothing about the run's
 # subject. Prints the evidence (with_stall_retries below decides what follows). (The summary has
 # no per-QP times: a genuine budget fallback in a run that also stalled elsewhere is repeated
 # too, and must then not recur in the repeats.)
@@ -100,7 +101,7 @@ left = [e for e in s["event_log"] if e["from"] == "active"]
 stopped = rc != 0 and left and left[0]["reason"] == "deadline_miss"
 too_many = s["deadline_misses"] > 10 * dur or s["max_consecutive_misses"] >= 5
 # a fallback on the QP time budget that the daemon did not itself classify as a stalled thread
-# (DeadlineSpentByAStall), in a run with a cycle or QP over 2 ms
+# (DeadlineSpentByAStall), in a run with a cycle or QP over 1 ms
 budget_fallback = s["controller_fallbacks_deadline"] > s["controller_fallbacks_deadline_stalled"]
 if not (stopped or too_many or budget_fallback): sys.exit(1)
 last = re.search(r"last ([0-9.]+) us", left[0]["detail"]) if stopped else None
@@ -108,8 +109,8 @@ worst = max(s["cycle_time"]["max_us"], s["qp_time_max_us"], float(last.group(1))
 print(f"hil_e2e_test: timing broken ({'stopped: ' + left[0]['detail'] if stopped else 'no stop'}; "
       f"{s['deadline_misses']} misses, at most {s['max_consecutive_misses']} in a row; "
       f"{s['controller_fallbacks_deadline']} fallbacks on the QP time budget), longest cycle or QP "
-      f"{worst:.0f} us: " + ("the machine stalled the servo thread" if worst > 2000 else "not a stall of the machine"))
-sys.exit(0 if worst > 2000 else 1)
+      f"{worst:.0f} us: " + ("the machine stalled the servo thread" if worst > 1000 else "not a stall of the machine"))
+sys.exit(0 if worst > 1000 else 1)
 PY
 }
 
@@ -131,7 +132,7 @@ relaxed_deadline_config() {
 # sets rc) again while stalled_by_the_machine says the machine, not the daemon, broke its timing.
 # After two such runs the third relaxes the deadline policy (timing_judged=0): the machine cannot
 # judge the timing then, and everything else is still judged. A controller too slow on its own
-# (cycles under 2 ms but over the deadline) is never rerun, so it still fails.
+# (cycles under 1 ms but over the deadline) is never rerun, so it still fails.
 timing_judged=1
 with_stall_retries() {
   local dur=$1 attempt
