@@ -73,7 +73,7 @@ HalConfig DefaultHalConfig() {
       } else {
         jc.q_min_rad = front ? Deg(-140.0) : Deg(20.0);
         jc.q_max_rad = front ? Deg(-20.0) : Deg(140.0);
-        jc.cylinder = {0.040, 0.290, Deg(10.0), front ? -1.0 : 1.0};
+        jc.cylinder = {0.050, 0.290, Deg(190.0), front ? 1.0 : -1.0};
       }
     }
   }
