@@ -3,7 +3,13 @@
 plant variants, trot and Figure-Eight, several seeds (docs/baselines.md quotes the output).
 
     /usr/bin/python3 scripts/baseline_experiments.py [--out DIR] [--tuning FILE] [--seeds 1,2,3]
-        [--mu 0.1[,1.0]] [--variants ideal,...] [--controllers LIST] [--quick] [--build DIR]
+        [--mu 0.1[,1.0]] [--mu1-variants ideal,realistic] [--variants ideal,...]
+        [--controllers LIST] [--quick] [--build DIR] [--all] [--tables-only]
+
+--all regenerates every table and figure of issue 15 with this one command: these runs, then
+the in-process runs of docs/experiments.md (hyq-experiment --all with the tuned gains and with
+--gains untuned, and the paper's scenarios on --profile realistic) into DIR/inprocess*/, and
+docs/hil_experiments.md's runs (scripts/hil_experiments.py) into DIR/hil-experiments/.
 
 Each run is scripts/hil.sh (hyq-sim + hyq-servod on the virtual buses, lock-step) with the shipped
 simulation configuration, the controller's gains from --tuning (scripts/tune_gains.py's
@@ -24,6 +30,17 @@ CTRLS = ["pid", "pd_gravity", "noslip", "two_stage"]
 # with the trunk's disturbance observer in the model (controller.disturbance_observer, issue 15):
 # "<controller>+dob", the controller's own tuned gains
 DOB = "+dob"
+# with integral action in the ID controllers' feedback (controller.gains.ki_tau, i_limit_tau):
+# "<controller>+int". KI_TAU from a sweep of {0, 100, 300, 1000, 3000} N m/(rad s) through the loop
+# (trot and Figure-Eight, ideal and realistic plant, seed 1; docs/baselines.md): it leaves the trot
+# alone and takes 30 % off the Figure-Eight; 1000 is the smallest value that gets most of that.
+INT = "+int"
+KI_TAU, I_LIMIT_TAU = 1000.0, 100.0
+
+
+def base_of(ctrl):
+    """'two_stage+dob+int' -> 'two_stage'."""
+    return ctrl.split("+")[0]
 # name -> hyq-sim arguments (without --seed; "{seed}" is the run's seed). "ideal" is hyq-sim's
 # default plant; the others switch one factor of the realistic profile on at its level
 # (docs/simulation.md, "Plant profiles"), then all of them together. SEEDED: the variants in
@@ -53,13 +70,15 @@ def chosen_gains(tuning_path):
 
 
 def config_for(out_dir, build, ctrl, gains):
-    dob = ctrl.endswith(DOB)
-    ctrl = ctrl[:-len(DOB)] if dob else ctrl
+    dob, integral = DOB in ctrl, INT in ctrl
+    ctrl = base_of(ctrl)
     frag = tune_gains.gains_yaml(ctrl, gains[ctrl]) if ctrl in gains else ""
     text = tune_gains.shipped_sim_config(build, frag) if frag else tune_gains.shipped_sim_config(
         build, "controller:\n  gains:\n")
     if dob:  # the section goes into controller: (after its gains)
         text = text.replace("\ncontroller:\n", "\ncontroller:\n  disturbance_observer:\n    enabled: true\n", 1)
+    if integral:
+        text = text.replace("\n  gains:\n", f"\n  gains:\n    ki_tau: {KI_TAU}\n    i_limit_tau: {I_LIMIT_TAU}\n", 1)
     p = os.path.join(out_dir, "servo.yaml")
     open(p, "w").write(text)
     return p
@@ -92,6 +111,10 @@ def main():
     ap.add_argument("--tuning", help="tune_gains.py's tuning.json (default: the gains in the config file)")
     ap.add_argument("--seeds", default="1,2,3", help="hyq-sim seeds (default 1,2,3)")
     ap.add_argument("--mu", default="0.1", help="ground friction, comma-separated (default 0.1)")
+    ap.add_argument("--mu1-variants", default="ideal,realistic",
+                    help="variants also run on mu = 1.0 (default ideal,realistic; '' for none)")
+    ap.add_argument("--all", action="store_true",
+                    help="also the in-process experiments and scripts/hil_experiments.py (see above)")
     ap.add_argument("--variants", default=",".join(VARIANTS), help=f"plant variants (default: {','.join(VARIANTS)})")
     ap.add_argument("--controllers", default=",".join(CTRLS), help=f"default: {','.join(CTRLS)}")
     ap.add_argument("--quick", action="store_true", help="seed 1 only, trot only")
@@ -105,13 +128,17 @@ def main():
     except ValueError as e:
         ap.error(f"--seeds / --mu: expected comma-separated numbers ({e})")
     variants = a.variants.split(",")
-    for v in variants:
+    mu1 = [v for v in a.mu1_variants.split(",") if v]
+    for v in variants + mu1:
         if v not in VARIANTS:
-            ap.error(f"--variants: '{v}' is not one of {', '.join(VARIANTS)}")
+            ap.error(f"--variants / --mu1-variants: '{v}' is not one of {', '.join(VARIANTS)}")
     ctrls = a.controllers.split(",")
     for c in ctrls:
-        if c.removesuffix(DOB) not in CTRLS:
-            ap.error(f"--controllers: '{c}' is not one of {', '.join(CTRLS)} (each optionally +dob)")
+        mods = c.split("+")[1:]
+        if base_of(c) not in CTRLS or any(m not in ("dob", "int") for m in mods) or (
+                "int" in mods and base_of(c) not in ("noslip", "two_stage")):
+            ap.error(f"--controllers: '{c}' is not one of {', '.join(CTRLS)} (each optionally +dob; "
+                     "the ID controllers also +int)")
     refs = ["trot"] if a.quick else list(REFS)
     if a.quick:
         seeds = seeds[:1]
@@ -119,7 +146,9 @@ def main():
     os.makedirs(a.out, exist_ok=True)
     def seeds_of(v):
         return seeds if v in SEEDED else seeds[:1]
-    runs = [(v, r, mu, c, s) for v in variants for r in refs for mu in mus for c in ctrls for s in seeds_of(v)]
+    def mus_of(v):
+        return mus + ([1.0] if v in mu1 and 1.0 not in mus and not a.quick else [])
+    runs = [(v, r, mu, c, s) for v in variants for r in refs for mu in mus_of(v) for c in ctrls for s in seeds_of(v)]
     results, t0 = {"gains": gains, "variants": {v: VARIANTS[v] for v in variants}, "runs": {}}, time.time()
     if a.tables_only:
         results = json.load(open(os.path.join(a.out, "results.json")))
@@ -131,7 +160,7 @@ def main():
         cfg = config_for(d, a.build, c, gains)
         ref, dur = REFS[r]
         sim_args = ["--seed", str(s)] + [x.replace("{seed}", str(s)) for x in VARIANTS[v]]
-        res = tune_gains.run(a.build, d, c.removesuffix(DOB), cfg, sim_args, reference=ref, mu=mu, duration=dur)
+        res = tune_gains.run(a.build, d, base_of(c), cfg, sim_args, reference=ref, mu=mu, duration=dur)
         results["runs"][name] = {"variant": v, "ref": r, "mu": mu, "ctrl": c, "seed": s, **res}
         eta = (time.time() - t0) / (k + 1) * (len(runs) - k - 1)
         err = f"{res['error']:.4f} rad" if "error" in res else "-"
@@ -141,10 +170,10 @@ def main():
         json.dump(results, open(os.path.join(a.out, "results.json"), "w"), indent=1)
     L = []
     for v in variants:
-        for mu in mus:
+        for mu in mus_of(v):
             L.append(f"\n### {v} plant, mu = {mu} (mean tracking error over ACTIVE, rad: mean ± sd over seeds {','.join(map(str, seeds_of(v)))}; hyq-sim {' '.join(VARIANTS[v]) or 'defaults'})\n")
-            L.append("| scenario | " + " | ".join(ctrls) + " | two-stage vs PID | two-stage vs PD + g | two-stage + DOB vs two-stage |")
-            L.append("|---|" + "---|" * (len(ctrls) + 3))
+            L.append("| scenario | " + " | ".join(ctrls) + " | two-stage vs PID | two-stage vs PD + g | two-stage + DOB vs two-stage | two-stage + integral vs two-stage |")
+            L.append("|---|" + "---|" * (len(ctrls) + 4))
             for r in refs:
                 cells, means = [], {}
                 for c in ctrls:
@@ -155,7 +184,7 @@ def main():
                         not math.isnan(e) for e in errs) else float("nan")
                     cells.append(fmt(errs) + (f" ({len(bad)} of {len(rs)} unstable: " + short_why(bad) + ")" if bad else ""))
                 rel = []
-                for a_, b_ in (("two_stage", "pid"), ("two_stage", "pd_gravity"), ("two_stage" + DOB, "two_stage")):
+                for a_, b_ in (("two_stage", "pid"), ("two_stage", "pd_gravity"), ("two_stage" + DOB, "two_stage"), ("two_stage" + INT, "two_stage")):
                     if a_ in means and b_ in means and means[b_] > 0:
                         rel.append(f"{100.0 * (means[a_] - means[b_]) / means[b_]:+.0f} %")
                     else:
@@ -163,7 +192,26 @@ def main():
                 L.append(f"| {r} | " + " | ".join(cells) + " | " + " | ".join(rel) + " |")
     open(os.path.join(a.out, "tables.md"), "w").write("\n".join(L) + "\n")
     print("\n".join(L))
-    plot(results, a.out, variants, refs, mus, ctrls, seeds_of)
+    plot(results, a.out, variants, refs, sorted({m for v in variants for m in mus_of(v)}), ctrls, seeds_of)
+    if a.all and not a.tables_only:
+        in_process(a.build, a.out)
+        cmd = [sys.executable, os.path.join(HERE, "scripts", "hil_experiments.py"), "--build", a.build,
+               "--out", os.path.join(a.out, "hil-experiments")]
+        print("$ " + " ".join(cmd), flush=True)
+        subprocess.run(cmd, check=True)
+
+
+def in_process(build, out):
+    """docs/experiments.md's runs: hyq-experiment with the tuned gains, the untuned ones, and the
+    paper's scenarios on the realistic plant (each prints its own progress)."""
+    exe = os.path.join(build, "tools", "hyq-experiment", "hyq-experiment")
+    paper = [x for sc in ("trot_mu0.1", "eight_mu0.1", "trot_mu1.0", "eight_mu1.0")
+             for c in CTRLS for x in ("--scenario", f"{sc}_{c}")]
+    for sub, args in (("inprocess", ["--all"]), ("inprocess-untuned", ["--all", "--gains", "untuned"]),
+                      ("inprocess-realistic", paper + ["--profile", "realistic"])):
+        cmd = [exe, "--out", os.path.join(out, sub)] + args
+        print("$ " + " ".join(cmd), flush=True)
+        subprocess.run(cmd, check=True)
 
 
 def plot(R, out, variants, refs, mus, ctrls, seeds_of):
@@ -181,7 +229,9 @@ def plot(R, out, variants, refs, mus, ctrls, seeds_of):
         for k, c in enumerate(ctrls):
             ys, es, xs, bad = [], [], [], []
             for j, v in enumerate(variants):
-                rs = [R["runs"][f"{v}_{r}_mu{mu}_{c}_s{s}"] for s in seeds_of(v)]
+                rs = [R["runs"][n] for n in (f"{v}_{r}_mu{mu}_{c}_s{s}" for s in seeds_of(v)) if n in R["runs"]]
+                if not rs:  # this variant was not run on this mu
+                    continue
                 e = [x["error"] for x in rs if "error" in x]
                 ys.append(statistics.mean(e) if e else 0.0)
                 es.append(statistics.stdev(e) if len(e) > 1 else 0.0)

@@ -2,10 +2,11 @@
 """The paper's mu = 0.1 experiments through the loop (issue #8): hyq-sim + hyq-servod on virtual
 CAN (scripts/hil.sh, lock-step), beside the in-process runs of hyq-experiment.
 
-    /usr/bin/python3 scripts/hil_experiments.py [--out DIR] [--quick]
+    /usr/bin/python3 scripts/hil_experiments.py [--out DIR] [--quick] [--resume] [--build DIR]
 
-Runs, for trot (6 s) and Figure-Eight (5 s, as hyq-experiment) on mu = 0.1 with pid, noslip and
-two_stage:
+Runs, for trot (6 s) and Figure-Eight (5 s, as hyq-experiment) on mu = 0.1 with pid, pd_gravity,
+noslip and two_stage, each with its tuned gains (the shipped configuration's, from
+scripts/tune_gains.py; hyq-experiment's default --gains tuned):
   - in-process (hyq-experiment --scenario ..., true state, ideal actuators, no noise, no bus),
   - HIL "full": actuator lag 5 ms (hyq-sim default), load-cell noise, IMU noise, seeds 1 and 2,
   - HIL ablations (seed 1): noise off; actuator lag off; both off.
@@ -17,13 +18,13 @@ import argparse, json, math, os, subprocess, sys, time
 import xml.etree.ElementTree as ET
 
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BUILD = os.path.join(HERE, "build", "release")
+BUILD = os.path.join(HERE, "build", "ci")
 MU = 0.1
 LOAD_CELL_NOISE = "2"          # N*m at the joint, sigma
 IMU_NOISE = "0.01,0.1"         # gyro rad/s, accelerometer m/s^2, sigma
 ACT_TAU = "0.005"              # hyq-sim default, 5 ms
 REFS = {"trot": ("trot", 6.0), "eight": ("figure_eight", 0.5 + 4.0 + 0.5)}
-CTRLS = ["pid", "noslip", "two_stage"]
+CTRLS = ["pid", "pd_gravity", "noslip", "two_stage"]
 VARIANTS = {  # name -> hyq-sim args
     "full": ["--actuator-tau", ACT_TAU, "--load-cell-noise", LOAD_CELL_NOISE, "--imu-noise", IMU_NOISE],
     "full_seed2": ["--actuator-tau", ACT_TAU, "--load-cell-noise", LOAD_CELL_NOISE, "--imu-noise", IMU_NOISE,
@@ -134,7 +135,7 @@ def slip_from_truth(path, chains, t0, t1):
 
 # ---------- runs ----------
 def run_hil(out, ref, duration, ctrl, sim_args, log, resume=False):
-    cmd = [os.path.join(HERE, "scripts", "hil.sh"), "--out", out, "--duration", str(duration),
+    cmd = [os.path.join(HERE, "scripts", "hil.sh"), "--build", BUILD, "--out", out, "--duration", str(duration),
            "--reference", ref, "--controller", ctrl, "--mu", str(MU), "--clock", "lockstep",
            "--no-logger", "--quiet", "--sim-arg", "--truth-every", "--sim-arg", "1"]
     for a in sim_args:
@@ -161,11 +162,16 @@ def run_hil(out, ref, duration, ctrl, sim_args, log, resume=False):
 
 
 def main():
+    global BUILD
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default=os.path.join(HERE, "hil-experiments"))
     ap.add_argument("--quick", action="store_true", help="only the 'full' variant")
     ap.add_argument("--resume", action="store_true", help="reuse runs already in DIR/runs made by the same command")
+    ap.add_argument("--build", default=BUILD, help=f"the build tree (default {BUILD})")
     a = ap.parse_args()
+    BUILD = os.path.abspath(a.build)
+    if not os.path.exists(os.path.join(BUILD, "tools", "hyq-experiment", "hyq-experiment")):
+        ap.error(f"--build: no tools/hyq-experiment/hyq-experiment under {BUILD} (build the project first)")
     os.makedirs(a.out, exist_ok=True)
     log = open(os.path.join(a.out, "commands.log"), "a" if a.resume else "w")
     chains = load_chains(os.path.join(HERE, "config", "robots", "hyq.urdf"))
@@ -257,10 +263,10 @@ def write_tables(R, out, variants):
                      f"{fell_txt(i['fell'], i['fell_at_s'])} | {h['mean_error_rad']:.4f} / {h['max_error_rad']:.3f} | "
                      f"{h['mean_slip_m_s']:.3f} | {fell_txt(h['fell_while_active'], h['fell_at_active_s'] or 0)} | "
                      f"{h['qp_mean_us']:.1f} / {h['qp_max_us']:.0f} | {h['fallbacks']} |")
-    table(L, "\n### Two-stage ID vs PID and vs no-slip ID (mean tracking error)\n",
+    table(L, "\n### Two-stage ID vs PID, PD + gravity compensation and no-slip ID (mean tracking error)\n",
           ["scenario", "comparison", "in-process", "HIL full (seed 1)", "HIL full (seed 2)"])
     for r in REFS:
-        for other in ["pid", "noslip"]:
+        for other in ["pid", "pd_gravity", "noslip"]:
             i = pct(R["inprocess"][f"{r}_two_stage"]["mean_error_rad"], R["inprocess"][f"{r}_{other}"]["mean_error_rad"])
             cells = []
             for v in ["full", "full_seed2"]:

@@ -57,8 +57,8 @@ struct ServoConfig {
   // measured posture; a stop damps at once)
   double stand_up_s = 0.0;              // after enable: from the resting crouch to standing height
   double sit_down_s = 0.0;              // a controlled stop or disable: down to the crouch first
-  double crouch_height_m = 0.40;        // base height of the crouch the robot sits down to
-  double sit_damping_Nms_per_rad = 150.0;  // the damping after a sit-down (a fault's: safety.*)
+  double crouch_height_m = 0.36;        // base height of the crouch the robot sits down to
+  double sit_damping_Nms_per_rad = 80.0;  // the damping after a sit-down (a fault's: safety.*)
   // ... lasts until every joint has been slower than this for 0.2 s (the robot rests on the
   // ground: torque off before that would drop it), at least safety.damping_duration_s
   double sit_settle_speed_rad_s = 0.05;

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -16,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "config/hal_config_loader.h"
+#include "config/servo_config_loader.h"
 #include "dynamics/urdf_loader.h"
 #include "servo/control/id_record.h"
 #include "tools/sim/experiment.h"
@@ -29,8 +31,9 @@ constexpr std::string_view kUsage =
     "usage: hyq-experiment [--all | --scenario NAME]... [--out DIR] [--list] [--help]\n"
     "\n"
     "Runs the paper's simulated experiments on the MuJoCo HyQ: trot and one Figure-Eight cycle on\n"
-    "mu = 0.1 and 1.0 with PID, no-slip ID and the two-stage ID (same PD gains), Stage I only vs\n"
-    "Stage I + II through contact changes (Fig. 1), and 60 s of trotting for the solve times.\n"
+    "mu = 0.1 and 1.0 with PID, PD + gravity compensation, no-slip ID and the two-stage ID (each\n"
+    "with its tuned gains; see --gains), Stage I only vs Stage I + II through contact changes\n"
+    "(Fig. 1), and 60 s of trotting for the solve times.\n"
     "Writes DIR/<scenario>.csv, DIR/results.json, DIR/results.md and the figures DIR/fig*.png\n"
     "(default DIR: experiments; figures through tools/hyq-experiment/plot.py and matplotlib).\n"
     "\n"
@@ -49,7 +52,12 @@ constexpr std::string_view kUsage =
     "  --payload KG,X,Y,Z|off, --link-errors SEED|off, --hydraulics on|off,\n"
     "  --joint-friction on|off, --delay-cycles K, --load-cell-bias NM, --bias-seed N\n"
     "                   one factor of the profile changed (after --profile, whatever the\n"
-    "                   order; as in hyq-sim --help)\n";
+    "                   order; as in hyq-sim --help)\n"
+    "  --gains G        the controllers' feedback gains: tuned (default: the shipped ones in\n"
+    "                   config/hyq_servo_sim.yaml, each controller its own, from\n"
+    "                   scripts/tune_gains.py; docs/baselines.md), untuned (one PD for all,\n"
+    "                   300 N m/rad and 8 N m s/rad, no integral: the first wave's rule), or a\n"
+    "                   servo configuration FILE whose controller.gains are used\n";
 
 struct Scenario {
   std::string name;
@@ -211,6 +219,12 @@ void WriteTables(nlohmann::json& results, const std::string& out_dir) {
       "-90.33 %", results.contains("eight_mu0.1_pid") && results.contains("eight_mu0.1_two_stage"));
   row("Figure-Eight, mu = 0.1: two-stage ID vs no-slip ID", change("eight_mu0.1_two_stage", "eight_mu0.1_noslip"),
       "-56.30 %", results.contains("eight_mu0.1_noslip") && results.contains("eight_mu0.1_two_stage"));
+  row("trot, mu = 0.1: two-stage ID vs PD + gravity compensation",
+      change("trot_mu0.1_two_stage", "trot_mu0.1_pd_gravity"), "(not in the paper)",
+      results.contains("trot_mu0.1_pd_gravity") && results.contains("trot_mu0.1_two_stage"));
+  row("Figure-Eight, mu = 0.1: two-stage ID vs PD + gravity compensation",
+      change("eight_mu0.1_two_stage", "eight_mu0.1_pd_gravity"), "(not in the paper)",
+      results.contains("eight_mu0.1_pd_gravity") && results.contains("eight_mu0.1_two_stage"));
   row("trot, mu = 1.0: two-stage ID vs no-slip ID", change("trot_mu1.0_two_stage", "trot_mu1.0_noslip"),
       "nearly identical", results.contains("trot_mu1.0_noslip") && results.contains("trot_mu1.0_two_stage"));
   row("Figure-Eight, mu = 1.0: two-stage ID vs no-slip ID", change("eight_mu1.0_two_stage", "eight_mu1.0_noslip"),
@@ -269,6 +283,7 @@ int main(int argc, char** argv) {
   bool record_id = false;
   sim::PlantProfile profile;
   std::vector<std::pair<std::string, std::string>> profile_flags;
+  std::string gains_source = "tuned";
   const auto scenarios = Scenarios();
   for (int i = 1; i < argc; ++i) {
     const std::string_view a = argv[i];
@@ -300,6 +315,8 @@ int main(int argc, char** argv) {
       profile_flags.emplace_back(std::string(a), argv[++i]);
     } else if (a == "--out" && i + 1 < argc) {
       out_dir = argv[++i];
+    } else if (a == "--gains" && i + 1 < argc) {
+      gains_source = argv[++i];
     } else {
       std::fprintf(stderr, "hyq-experiment: unknown or incomplete option '%s'\n\n%s", argv[i],
                    kUsage.data());
@@ -327,6 +344,17 @@ int main(int argc, char** argv) {
                  kUsage.data());
     return 2;
   }
+  // the feedback gains every scenario's controller runs with (--gains)
+  std::optional<servo::ControllerConfig> gains;
+  if (gains_source != "untuned") {
+    const std::string path = gains_source == "tuned" ? HYQ_DEFAULT_SERVO_CONFIG : gains_source;
+    try {
+      gains = config::LoadServoConfig(path).controller;
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "hyq-experiment: --gains %s: %s\n", gains_source.c_str(), e.what());
+      return 2;
+    }
+  }
   const dynamics::Model model = dynamics::LoadModelFromUrdf(HYQ_DEFAULT_URDF);
   const hal::HalConfig hal_config = config::LoadHalConfig(HYQ_DEFAULT_HAL_CONFIG);
   std::filesystem::create_directories(out_dir);
@@ -337,6 +365,11 @@ int main(int argc, char** argv) {
     const auto t0 = std::chrono::steady_clock::now();
     sim::ExperimentConfig cfg = s.cfg;
     cfg.record_id_inputs = record_id && cfg.controller.kind != ControllerKind::kPid;
+    if (gains) {
+      cfg.controller.pid = gains->pid;
+      cfg.controller.feedback = gains->feedback;
+      cfg.controller.pd_gravity = gains->pd_gravity;
+    }
     cfg.profile = profile;
     cfg.joints.assign(hal_config.joints.begin(), hal_config.joints.end());
     const auto r = sim::RunExperiment(model, cfg, [&](double f) {
@@ -378,7 +411,8 @@ int main(int argc, char** argv) {
                        {"torque_total_variation_Nm", r.torque_total_variation},
                        {"fallbacks", {{"stage1_failed", r.fallbacks.stage1_failed}, {"stage2_failed", r.fallbacks.stage2_failed}}},
                        {"realtime_factor", s.cfg.duration_s / wall},
-                       {"profile", nlohmann::json::parse(profile.Json())}};
+                       {"profile", nlohmann::json::parse(profile.Json())},
+                       {"gains", gains_source}};
     if (!s.cfg.patches.empty()) {
       nlohmann::json settling = nlohmann::json::array();
       for (const auto& st : r.settling)
