@@ -115,10 +115,10 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
       note(MakeFault(EventReason::kOutOfRange, j, -1, "%.*s: q=%.4f rad outside [%.4f, %.4f]",
                      static_cast<int>(label.size()), label.data(), in.position_rad, q_min_[ju], q_max_[ju]));
     if (std::abs(in.velocity_rad_s) > limits_.max_velocity_rad_s)
-      note(MakeFault(EventReason::kOutOfRange, j, -1, "%.*s: |qd|=%.3f rad/s above %.3f",
+      note(MakeFault(EventReason::kOutOfRange, j, -1, "%.*s: qd=%.3f rad/s, |qd| above %.3f",
                      static_cast<int>(label.size()), label.data(), in.velocity_rad_s, limits_.max_velocity_rad_s));
     if (std::abs(in.torque_Nm) > limits_.max_measured_torque_Nm)
-      note(MakeFault(EventReason::kOutOfRange, j, -1, "%.*s: |tau measured|=%.1f N m above %.1f",
+      note(MakeFault(EventReason::kOutOfRange, j, -1, "%.*s: measured tau=%.1f N m, |tau| above %.1f",
                      static_cast<int>(label.size()), label.data(), in.torque_Nm, limits_.max_measured_torque_Nm));
     if (have_last_[ju] && std::abs(in.position_rad - last_q_[ju]) > limits_.max_position_jump_rad)
       note(MakeFault(EventReason::kInputJump, j, -1, "%.*s: q jumped %.4f rad in one cycle (max %.4f)",

@@ -16,6 +16,10 @@ namespace {
 // Contact settings that give Coulomb friction (docs/simulation.md; DESIGN §7, measured): an
 // elliptic cone with a high impedance ratio, a stiff floor, the floor's friction used.
 constexpr const char* kFloorContact = "solref=\"0.005 1\" solimp=\"0.9 0.99 0.001\"";
+// A joint's end stop (the cylinder's or the rotary actuator's mechanical stop) as stiff as the
+// floor: with MuJoCo's default (solref 0.02) the trunk's weight, resting on folded knees after a
+// sit-down, pushed a knee 0.15 rad past its URDF range.
+constexpr const char* kJointStop = "solreflimit=\"0.005 1\"";
 
 std::string Vec(const Eigen::Vector3d& v) {
   std::ostringstream s;
@@ -83,7 +87,7 @@ std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config) {
         << Quat(body.R_PJ) << "\">\n"
         << pad << "  <joint name=\"" << model.joint_names[j] << "\" type=\"hinge\" axis=\""
         << Vec(body.axis_B) << "\" limited=\"true\" range=\"" << lim.lower_rad << ' '
-        << lim.upper_rad << "\"/>\n";
+        << lim.upper_rad << "\" " << kJointStop << "/>\n";
       const int k = j % dynamics::kJointsPerLeg;
       if (k == 1) x << pad << "  <geom type=\"capsule\" fromto=\"0.05 0 0 0.3 0 0\" size=\"0.03\"/>\n";
       if (k == 2) {
