@@ -223,15 +223,18 @@ def plot(R, out, variants, refs, mus, ctrls, seeds_of):
         print("no matplotlib: no figure")
         return
     panels = [(r, mu) for r in refs for mu in mus]
-    fig, axs = plt.subplots(1, len(panels), figsize=(5.5 * len(panels), 4), squeeze=False)
-    for ax, (r, mu) in zip(axs[0], panels):
+    ncol = len(mus)
+    fig, axs = plt.subplots(len(refs), ncol, figsize=(9 * ncol, 4.2 * len(refs)), squeeze=False,
+                            gridspec_kw={"width_ratios": [sum(any(n.startswith(f"{v}_{refs[0]}_mu{m}_") for n in R["runs"])
+                                                              for v in variants) + 1 for m in mus]} if ncol > 1 else None)
+    for ax, (r, mu) in zip(axs.flat, panels):
+        # only the variants run on this mu
+        pv = [v for v in variants if any(n.startswith(f"{v}_{r}_mu{mu}_") for n in R["runs"])]
         w = 0.8 / len(ctrls)
         for k, c in enumerate(ctrls):
             ys, es, xs, bad = [], [], [], []
-            for j, v in enumerate(variants):
+            for j, v in enumerate(pv):
                 rs = [R["runs"][n] for n in (f"{v}_{r}_mu{mu}_{c}_s{s}" for s in seeds_of(v)) if n in R["runs"]]
-                if not rs:  # this variant was not run on this mu
-                    continue
                 e = [x["error"] for x in rs if "error" in x]
                 ys.append(statistics.mean(e) if e else 0.0)
                 es.append(statistics.stdev(e) if len(e) > 1 else 0.0)
@@ -241,11 +244,13 @@ def plot(R, out, variants, refs, mus, ctrls, seeds_of):
             for x, y, b in zip(xs, ys, bad):
                 if b:
                     ax.text(x, y, "unstable", ha="center", va="bottom", fontsize=6, rotation=90)
-        ax.set_xticks(range(len(variants)), variants, rotation=20, fontsize=8)
+        ax.set_xticks(range(len(pv)), pv, rotation=20, fontsize=8)
         ax.set_yscale("log")
         ax.set_ylabel("mean ‖q_ref − q‖ over ACTIVE (rad)")
-        ax.set_title(f"{r}, μ = {mu} (seeded variants: 3 seeds, error bars ± sd)")
-    axs[0][0].legend(fontsize=7)
+        ax.set_title(f"{r}, μ = {mu}")
+    axs[0][0].legend(fontsize=7, ncol=2)
+    fig.suptitle("mean tracking error over ACTIVE through the loop; seeded variants: mean of 3 seeds, "
+                 "error bars ± sd; 'unstable': a fault or a fall", fontsize=9)
     fig.tight_layout()
     fig.savefig(os.path.join(out, "baselines.png"), dpi=110)
     print("figure", os.path.join(out, "baselines.png"))

@@ -85,6 +85,32 @@ TEST(Plant, StandsOnItsFeetWithTheWeightOnTheContacts) {
   EXPECT_NEAR(fz, HyqModel().TotalMass() * 9.81, 0.02 * HyqModel().TotalMass() * 9.81);
 }
 
+// A joint's end stop is as stiff as the cylinder's mechanical stop: the full 150 N m driven into
+// the LF knee's flexion stop (the robot in free fall high above the floor, so only the leg's own
+// inertia is involved) holds it within 0.02 rad of its URDF range once it rests there. With
+// MuJoCo's default limit (solref 0.02) the resting trunk on folded knees went 0.15 rad past.
+TEST(Plant, JointStopsHoldTheActuatorsFullTorque) {
+  Plant plant(HyqModel(), PlantConfig{});
+  dynamics::VectorQ q = plant.q();
+  q(2) = 50.0;  // far above the floor: no contact for the whole second
+  plant.Reset(q, dynamics::VectorV::Zero());
+  const int kfe = JointIndex(0, 2);  // lf_kfe
+  const double lower = HyqModel().limits[kfe].lower_rad;
+  double deepest = 0.0, resting = 0.0;  // over the run; once the impact has died out (last 0.5 s)
+  for (int k = 0; k < 1000; ++k) {
+    VectorJ tau = VectorJ::Zero();
+    tau(kfe) = -150.0;  // flexion: towards the lower limit
+    plant.Step(tau);
+    const double past = lower - plant.q().tail<12>()(kfe);
+    deepest = std::max(deepest, past);
+    if (k >= 500) resting = std::max(resting, past);
+  }
+  std::printf("lf_kfe pushed with -150 N m into its stop at %.4f rad: %.4f rad past it at the "
+              "impact, %.4f rad resting on it\n", lower, deepest, resting);
+  EXPECT_GT(resting, 0.0) << "the knee is not on its stop: the test did not test it";
+  EXPECT_LT(resting, 0.02);
+}
+
 TEST(Plant, FrictionPerFoot) {
   PlantConfig cfg;
   cfg.ground_mu = 1.0;
