@@ -6,8 +6,9 @@ plant variants, trot and Figure-Eight, several seeds (docs/baselines.md quotes t
         [--mu 0.1[,1.0]] [--mu1-variants ideal,realistic] [--variants ideal,...]
         [--controllers LIST] [--quick] [--build DIR] [--all] [--tables-only]
 
---all regenerates every table and figure of issue 15 with this one command: these runs, then
-the in-process runs of docs/experiments.md (hyq-experiment --all with the tuned gains and with
+--all regenerates every table and figure of issue 15 with this one command: these runs, three
+runs for DIR/delay_evidence.png (why one cycle of delay faults on the lag plant), then the
+in-process runs of docs/experiments.md (hyq-experiment --all with the tuned gains and with
 --gains untuned, and the paper's scenarios on --profile realistic) into DIR/inprocess*/, and
 docs/hil_experiments.md's runs (scripts/hil_experiments.py) into DIR/hil-experiments/.
 
@@ -194,11 +195,61 @@ def main():
     print("\n".join(L))
     plot(results, a.out, variants, refs, sorted({m for v in variants for m in mus_of(v)}), ctrls, seeds_of)
     if a.all and not a.tables_only:
+        delay_evidence(a.build, a.out, gains)
         in_process(a.build, a.out)
         cmd = [sys.executable, os.path.join(HERE, "scripts", "hil_experiments.py"), "--build", a.build,
                "--out", os.path.join(a.out, "hil-experiments")]
         print("$ " + " ".join(cmd), flush=True)
         subprocess.run(cmd, check=True)
+
+
+# why the extra cycle of delay faults on the lag plant and not with the hydraulics: the two-stage
+# ID's trot, seed 1, the plant state every step (--truth-every 1), on three plants
+EVIDENCE = {"lag 5 ms (ideal)": [], "lag 5 ms + 1 cycle delay": ["--delay-cycles", "1"],
+            "hydraulics + 1 cycle delay": ["--hydraulics", "on", "--delay-cycles", "1"]}
+
+
+def delay_evidence(build, out, gains):
+    """Runs EVIDENCE and draws DIR/delay_evidence.png: the right front knee's velocity and torque
+    around the trot's first lift-off, where the delayed lag plant faults."""
+    rows = {}
+    for k, (label, extra) in enumerate(EVIDENCE.items()):
+        d = os.path.join(out, "evidence", f"run{k}")
+        os.makedirs(d, exist_ok=True)
+        cfg = config_for(d, build, "two_stage", gains)
+        res = tune_gains.run(build, d, "two_stage", cfg, ["--seed", "1", "--truth-every", "1"] + extra)
+        print(f"[evidence {k + 1}/{len(EVIDENCE)}] {label}: "
+              f"{'stable' if res.get('stable') else res.get('why', '?')}", flush=True)
+        t, qd, tau = [], [], []
+        with open(os.path.join(d, "truth.csv")) as f:
+            head = f.readline().strip().split(",")
+            it, iq, iu = head.index("t"), head.index("qd_rf_kfe_joint"), head.index("tau_rf_kfe_joint")
+            for line in f:
+                x = line.split(",")
+                if 2.0 <= float(x[it]) <= 3.0:
+                    t.append(float(x[it])); qd.append(float(x[iq])); tau.append(float(x[iu]))
+        rows[label] = (t, qd, tau, res)
+    try:
+        import matplotlib
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        return
+    fig, (a1, a2) = plt.subplots(2, 1, figsize=(10, 6), sharex=True)
+    for label, (t, qd, tau, res) in rows.items():
+        tag = label + ("" if res.get("stable") else "  (faulted: " + res.get("why", "") + ")")
+        a1.plot(t, qd, lw=0.9, label=tag)
+        a2.plot(t, tau, lw=0.9, label=tag)
+    a1.axhline(15, color="k", ls=":", lw=0.8)
+    a1.axhline(-15, color="k", ls=":", lw=0.8, label="safety limit ±15 rad/s")
+    a1.set_ylabel("rf_kfe q̇ (rad/s)")
+    a2.set_ylabel("rf_kfe applied τ (N·m)")
+    a2.set_xlabel("simulated time (s): stand-up until 2.0 s, the trot's first lift-off at ~2.5 s")
+    a1.legend(fontsize=7)
+    a1.set_title("two-stage ID, tuned gains (kp_tau 837.9, kd_tau 28.2), trot μ = 0.1, seed 1")
+    fig.tight_layout()
+    fig.savefig(os.path.join(out, "delay_evidence.png"), dpi=110)
+    print("figure", os.path.join(out, "delay_evidence.png"))
 
 
 def in_process(build, out):
