@@ -152,7 +152,7 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     const YAML::Node g = r.Map(n, "controller", "gains");
     const std::string gp = "controller.gains";
     r.Keys(g, gp, {"kp_tau", "kd_tau", "kp_acc", "kd_acc", "pid_kp", "pid_ki", "pid_kd",
-                   "pid_i_limit", "pdg_kp", "pdg_kd", "ki_tau", "i_limit_tau"});
+                   "pid_i_limit", "pdg_kp", "pdg_kd", "ki_tau", "i_limit_tau", "swing_scale"});
     const double rate = c.rate_hz;
     if (g["kp_tau"].IsDefined()) cc.feedback.kp_tau = PerJoint(r, g, gp, "kp_tau", 0, kMaxKpTau, "N·m/rad");
     if (g["kd_tau"].IsDefined()) cc.feedback.kd_tau = PerJoint(r, g, gp, "kd_tau", 0, kMaxKdTau, "N·m·s/rad");
@@ -167,6 +167,7 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     if (g["pdg_kp"].IsDefined()) cc.pd_gravity.kp = PerJoint(r, g, gp, "pdg_kp", 0, kMaxKpTau, "N·m/rad");
     if (g["pdg_kd"].IsDefined()) cc.pd_gravity.kd = PerJoint(r, g, gp, "pdg_kd", 0, kMaxKdTau, "N·m·s/rad");
     if (g["pid_i_limit"].IsDefined()) cc.pid.i_limit = PerJoint(r, g, gp, "pid_i_limit", 0, 1000, "N·m");
+    cc.swing_gain_scale = Bounded(r, g, gp, "swing_scale", cc.swing_gain_scale, 0.05, 1.0);
   }
   if (n["disturbance_observer"].IsDefined()) {
     const YAML::Node d = r.Map(n, "controller", "disturbance_observer");

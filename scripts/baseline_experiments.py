@@ -37,6 +37,11 @@ DOB = "+dob"
 # alone and takes 30 % off the Figure-Eight; 1000 is the smallest value that gets most of that.
 INT = "+int"
 KI_TAU, I_LIMIT_TAU = 1000.0, 100.0
+# with lower feedback gains on swing legs (controller.gains.swing_scale, every controller):
+# "<controller>+swing"; 0.3 brings the tuned kd 28 on a swing leg to the untuned 8 that held the
+# real-time runs of 2026-12-02 (docs/benchmarks.md)
+SWING = "+swing"
+SWING_SCALE = 0.3
 
 
 def base_of(ctrl):
@@ -71,7 +76,7 @@ def chosen_gains(tuning_path):
 
 
 def config_for(out_dir, build, ctrl, gains):
-    dob, integral = DOB in ctrl, INT in ctrl
+    dob, integral, swing = DOB in ctrl, INT in ctrl, SWING in ctrl
     ctrl = base_of(ctrl)
     frag = tune_gains.gains_yaml(ctrl, gains[ctrl]) if ctrl in gains else ""
     text = tune_gains.shipped_sim_config(build, frag) if frag else tune_gains.shipped_sim_config(
@@ -80,6 +85,8 @@ def config_for(out_dir, build, ctrl, gains):
         text = text.replace("\ncontroller:\n", "\ncontroller:\n  disturbance_observer:\n    enabled: true\n", 1)
     if integral:
         text = text.replace("\n  gains:\n", f"\n  gains:\n    ki_tau: {KI_TAU}\n    i_limit_tau: {I_LIMIT_TAU}\n", 1)
+    if swing:
+        text = text.replace("\n  gains:\n", f"\n  gains:\n    swing_scale: {SWING_SCALE}\n", 1)
     p = os.path.join(out_dir, "servo.yaml")
     open(p, "w").write(text)
     return p
@@ -136,10 +143,10 @@ def main():
     ctrls = a.controllers.split(",")
     for c in ctrls:
         mods = c.split("+")[1:]
-        if base_of(c) not in CTRLS or any(m not in ("dob", "int") for m in mods) or (
+        if base_of(c) not in CTRLS or any(m not in ("dob", "int", "swing") for m in mods) or (
                 "int" in mods and base_of(c) not in ("noslip", "two_stage")):
-            ap.error(f"--controllers: '{c}' is not one of {', '.join(CTRLS)} (each optionally +dob; "
-                     "the ID controllers also +int)")
+            ap.error(f"--controllers: '{c}' is not one of {', '.join(CTRLS)} (each optionally +dob, "
+                     "+swing; the ID controllers also +int)")
     refs = ["trot"] if a.quick else list(REFS)
     if a.quick:
         seeds = seeds[:1]
@@ -173,8 +180,8 @@ def main():
     for v in variants:
         for mu in mus_of(v):
             L.append(f"\n### {v} plant, mu = {mu} (mean tracking error over ACTIVE, rad: mean ± sd over seeds {','.join(map(str, seeds_of(v)))}; hyq-sim {' '.join(VARIANTS[v]) or 'defaults'})\n")
-            L.append("| scenario | " + " | ".join(ctrls) + " | two-stage vs PID | two-stage vs PD + g | two-stage + DOB vs two-stage | two-stage + integral vs two-stage |")
-            L.append("|---|" + "---|" * (len(ctrls) + 4))
+            L.append("| scenario | " + " | ".join(ctrls) + " | two-stage vs PID | two-stage vs PD + g | two-stage + DOB vs two-stage | two-stage + integral vs two-stage | two-stage + swing gains vs two-stage |")
+            L.append("|---|" + "---|" * (len(ctrls) + 5))
             for r in refs:
                 cells, means = [], {}
                 for c in ctrls:
@@ -185,7 +192,8 @@ def main():
                         not math.isnan(e) for e in errs) else float("nan")
                     cells.append(fmt(errs) + (f" ({len(bad)} of {len(rs)} unstable: " + short_why(bad) + ")" if bad else ""))
                 rel = []
-                for a_, b_ in (("two_stage", "pid"), ("two_stage", "pd_gravity"), ("two_stage" + DOB, "two_stage"), ("two_stage" + INT, "two_stage")):
+                for a_, b_ in (("two_stage", "pid"), ("two_stage", "pd_gravity"), ("two_stage" + DOB, "two_stage"), ("two_stage" + INT, "two_stage"),
+                               ("two_stage" + SWING, "two_stage")):
                     if a_ in means and b_ in means and means[b_] > 0:
                         rel.append(f"{100.0 * (means[a_] - means[b_]) / means[b_]:+.0f} %")
                     else:

@@ -48,14 +48,19 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
                              const ContactEnvironment& env, double dt, IdOutput* out) noexcept {
   const auto qj = q.tail<dynamics::kNumJoints>();
   const auto vj = v.tail<dynamics::kNumJoints>();
+  // the feedback gains' scale per joint: swing legs' joints get swing_gain_scale
+  dynamics::VectorJ scale = dynamics::VectorJ::Ones();
+  for (int f = 0; f < dynamics::kNumFeet; ++f)
+    if (!ref.stance[static_cast<std::size_t>(f)])
+      scale.segment<dynamics::kJointsPerLeg>(dynamics::kJointsPerLeg * f).setConstant(config_.swing_gain_scale);
   if (config_.kind == ControllerKind::kPid) {
     *out = IdOutput{};
-    out->tau_Nm = pid_.Compute(qj, vj, ref.q, ref.qd, dt);
+    out->tau_Nm = pid_.Compute(qj, vj, ref.q, ref.qd, dt, &scale);
     return IdStatus::kOk;
   }
   if (config_.kind == ControllerKind::kPdGravity) {
     *out = IdOutput{};
-    out->tau_Nm = pd_gravity_.Compute(dyn, qj, vj, ref.q, ref.qd, ref.stance);
+    out->tau_Nm = pd_gravity_.Compute(dyn, qj, vj, ref.q, ref.qd, ref.stance, &scale);
     return IdStatus::kOk;
   }
   const FeedbackGains& g = config_.feedback;
@@ -75,7 +80,7 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
     case ControllerKind::kPdGravity: break;
   }
   if (st != IdStatus::kBadInput) {
-    out->tau_Nm += g.kp_tau.cwiseProduct(ref.q - qj) + g.kd_tau.cwiseProduct(ref.qd - vj);
+    out->tau_Nm += scale.cwiseProduct(g.kp_tau.cwiseProduct(ref.q - qj) + g.kd_tau.cwiseProduct(ref.qd - vj));
     for (int j = 0; j < dynamics::kNumJoints; ++j) {
       const double e = ref.q(j) - qj(j), lim = effort_limit_(j);
       const double unsat = out->tau_Nm(j) + id_integral_(j);

@@ -39,6 +39,10 @@ struct ControllerConfig {
   PidGains pid;
   PdGains pd_gravity;  // kPdGravity's PD
   TwoStageSettings id;  // stage2 is forced off for kStage1Id
+  // Every controller's feedback gains (kp, kd; not the integrals, not the feed-forward) on the
+  // joints of a leg whose reference foot is in swing are multiplied by this (1: off). A swing
+  // leg is light: the gains that hold the trunk ring it (docs/baselines.md).
+  double swing_gain_scale = 1.0;
 };
 
 /// The joint reference of one cycle and the contact situation it assumes.

@@ -21,7 +21,8 @@ PdGravityController::PdGravityController(const PdGains& gains,
 dynamics::VectorJ PdGravityController::Compute(
     const dynamics::CycleDynamics& dyn, const dynamics::VectorJ& q, const dynamics::VectorJ& qd,
     const dynamics::VectorJ& q_ref, const dynamics::VectorJ& qd_ref,
-    const std::array<bool, dynamics::kNumFeet>& stance) noexcept {
+    const std::array<bool, dynamics::kNumFeet>& stance,
+    const dynamics::VectorJ* gain_scale) noexcept {
   constexpr int nb = dynamics::kNumBaseDofs;
   const dynamics::VectorV& h = dyn.bias;
   Eigen::Matrix<double, nb, nb> N = kDamping * Eigen::Matrix<double, nb, nb>::Identity();
@@ -44,7 +45,8 @@ dynamics::VectorJ PdGravityController::Compute(
   }
   dynamics::VectorJ tau;
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
-    const double u = tau_g_(j) + gains_.kp(j) * (q_ref(j) - q(j)) + gains_.kd(j) * (qd_ref(j) - qd(j));
+    const double s = gain_scale != nullptr ? (*gain_scale)(j) : 1.0;
+    const double u = tau_g_(j) + s * (gains_.kp(j) * (q_ref(j) - q(j)) + gains_.kd(j) * (qd_ref(j) - qd(j)));
     tau(j) = std::clamp(u, -effort_limit_(j), effort_limit_(j));
   }
   return tau;

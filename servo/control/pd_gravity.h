@@ -30,10 +30,12 @@ class PdGravityController {
   PdGravityController(const PdGains& gains, const dynamics::VectorJ& effort_limit_Nm);
 
   /// One cycle; `dyn` is the cycle's dynamics at the measured state. Never allocates.
+  /// `gain_scale` (optional): per joint, multiplies kp and kd (not τ_g).
   dynamics::VectorJ Compute(const dynamics::CycleDynamics& dyn, const dynamics::VectorJ& q,
                             const dynamics::VectorJ& qd, const dynamics::VectorJ& q_ref,
                             const dynamics::VectorJ& qd_ref,
-                            const std::array<bool, dynamics::kNumFeet>& stance) noexcept;
+                            const std::array<bool, dynamics::kNumFeet>& stance,
+                            const dynamics::VectorJ* gain_scale = nullptr) noexcept;
 
   /// The last cycle's feed-forward τ_g, N·m.
   const dynamics::VectorJ& gravity_torque() const noexcept { return tau_g_; }

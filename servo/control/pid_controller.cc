@@ -9,11 +9,13 @@ PidController::PidController(const PidGains& gains, const dynamics::VectorJ& eff
 
 dynamics::VectorJ PidController::Compute(const dynamics::VectorJ& q, const dynamics::VectorJ& qd,
                                          const dynamics::VectorJ& q_ref,
-                                         const dynamics::VectorJ& qd_ref, double dt) noexcept {
+                                         const dynamics::VectorJ& qd_ref, double dt,
+                                         const dynamics::VectorJ* gain_scale) noexcept {
   dynamics::VectorJ tau;
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     const double e = q_ref(j) - q(j);
-    const double pd = gains_.kp(j) * e + gains_.kd(j) * (qd_ref(j) - qd(j));
+    const double s = gain_scale != nullptr ? (*gain_scale)(j) : 1.0;
+    const double pd = s * (gains_.kp(j) * e + gains_.kd(j) * (qd_ref(j) - qd(j)));
     const double lim = effort_limit_(j);
     const double unsat = pd + integral_(j);
     const bool saturated_along_e = (unsat > lim && e > 0.0) || (unsat < -lim && e < 0.0);

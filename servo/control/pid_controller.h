@@ -19,10 +19,11 @@ struct PidGains {
 class PidController {
  public:
   PidController(const PidGains& gains, const dynamics::VectorJ& effort_limit_Nm);
-  /// One step; never allocates.
+  /// One step; never allocates. `gain_scale` (optional): per joint, multiplies kp and kd (not
+  /// the integral), e.g. lower gains on swing legs (ControllerConfig::swing_gain_scale).
   dynamics::VectorJ Compute(const dynamics::VectorJ& q, const dynamics::VectorJ& qd,
                             const dynamics::VectorJ& q_ref, const dynamics::VectorJ& qd_ref,
-                            double dt) noexcept;
+                            double dt, const dynamics::VectorJ* gain_scale = nullptr) noexcept;
   void Reset() noexcept { integral_.setZero(); }
   const dynamics::VectorJ& integral() const noexcept { return integral_; }
   void set_gains(const PidGains& g) noexcept { gains_ = g; }

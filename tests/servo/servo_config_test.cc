@@ -152,6 +152,7 @@ TEST(ServoConfigYaml, EveryGainKeyReachesControllerConfig) {
     pid_i_limit: 90
     pdg_kp: 650
     pdg_kd: 17
+    swing_scale: 0.4
   disturbance_observer:
     enabled: true
     bandwidth_hz: 5
@@ -172,6 +173,15 @@ telemetry:
   EXPECT_DOUBLE_EQ(k.pid.i_limit(3), 90.0);
   EXPECT_DOUBLE_EQ(k.pd_gravity.kp(7), 650.0);
   EXPECT_DOUBLE_EQ(k.pd_gravity.kd(7), 17.0);
+  EXPECT_DOUBLE_EQ(k.swing_gain_scale, 0.4);
+  EXPECT_DOUBLE_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").controller.swing_gain_scale, 1.0);
+  try {  // a scale that would switch the swing legs' feedback off (or amplify it) is refused
+    (void)config::ParseServoConfig(robot + "controller:\n  gains:\n    swing_scale: 0\n", "test.yaml", kConfigDir);
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("controller.gains.swing_scale"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("[0.05, 1]"), std::string::npos) << e.what();
+  }
   EXPECT_TRUE(c.disturbance.enabled);
   EXPECT_DOUBLE_EQ(c.disturbance.bandwidth_hz, 5.0);
   EXPECT_DOUBLE_EQ(c.disturbance.max_force_N, 250.0);

@@ -26,6 +26,19 @@ for clock in lockstep realtime; do
   grep -q "bring-up aborted by a stop request" "$out/$clock.log" ||
     { cat "$out/$clock.log"; echo "FAIL: no message naming the stop request" >&2; exit 1; }
 done
+# a SIGTERM 20 ms after the start, while the configuration and the URDF are still loading, is a
+# stop request too (the signals are blocked from main's first line), not a kill
+"$servod" --config "$src/config/hyq_servo_sim.yaml" --clock lockstep --no-telemetry --quiet \
+  2>"$out/early.log" &
+pid=$!
+sleep 0.02
+kill -TERM "$pid"
+wait "$pid"
+rc=$?
+echo "servod_bringup_sigterm: SIGTERM during the start-up: exit $rc"
+[[ $rc -eq 1 ]] || { cat "$out/early.log"; echo "FAIL: expected exit 1 (143: killed by the signal)" >&2; exit 1; }
+grep -q "bring-up aborted by a stop request" "$out/early.log" ||
+  { cat "$out/early.log"; echo "FAIL: no message naming the stop request" >&2; exit 1; }
 # and without a signal, the lock-step bring-up ends after its bound in wall time (set to 3 s
 # here), not after 3 s of simulated time at up to 200 ms of waiting per cycle (minutes)
 sed -e "s|^  urdf: .*|  urdf: $src/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $src/config/hyq_hal.yaml|" \

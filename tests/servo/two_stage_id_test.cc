@@ -915,6 +915,43 @@ TEST_F(TwoStage, IdIntegralGrowsToItsLimitAndResets) {
   EXPECT_DOUBLE_EQ(ctl.id_integral().norm(), 0.0);
 }
 
+// ControllerConfig::swing_gain_scale: every controller's kp/kd feedback on the joints of a swing
+// leg is scaled, stance legs' untouched, the feed-forward and the integral not at all: the
+// difference between a scaled and an unscaled controller is exactly (1 − s) × that leg's PD
+TEST_F(TwoStage, SwingGainScaleScalesOnlyTheSwingLegsFeedback) {
+  const IdInput a = Consistent(kLfRh);  // LF and RH in stance, RF and LH in swing
+  const auto da = Dyn(a);
+  JointReference ref;
+  ref.q = a.q.tail<kNumJoints>() + VectorJ::LinSpaced(-0.02, 0.03);
+  ref.qd = a.v.tail<kNumJoints>() + VectorJ::Constant(0.1);
+  ref.stance = kLfRh;
+  ContactEnvironment env;
+  const double s = 0.3;
+  for (ControllerKind kind : {ControllerKind::kPid, ControllerKind::kPdGravity,
+                              ControllerKind::kNoSlipId, ControllerKind::kTwoStageId}) {
+    ControllerConfig cfg;
+    cfg.kind = kind;
+    cfg.pid.kp.setConstant(400.0);
+    cfg.pid.kd.setConstant(20.0);
+    cfg.pd_gravity.kp.setConstant(400.0);
+    cfg.pd_gravity.kd.setConstant(20.0);
+    cfg.feedback.kp_tau.setConstant(400.0);
+    cfg.feedback.kd_tau.setConstant(20.0);
+    ControllerConfig scaled = cfg;
+    scaled.swing_gain_scale = s;
+    Controller full_ctl(HyqModel(), cfg), scaled_ctl(HyqModel(), scaled);
+    IdOutput full, part;
+    (void)full_ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &full);
+    (void)scaled_ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &part);
+    const VectorJ pd = 400.0 * (ref.q - a.q.tail<kNumJoints>()) + 20.0 * (ref.qd - a.v.tail<kNumJoints>());
+    for (int j = 0; j < kNumJoints; ++j) {
+      const bool swing = !kLfRh[static_cast<std::size_t>(j / 3)];
+      EXPECT_NEAR(full.tau_Nm(j) - part.tau_Nm(j), swing ? (1.0 - s) * pd(j) : 0.0, 1e-6)
+          << ToString(kind) << " joint " << j;
+    }
+  }
+}
+
 // PD + gravity compensation's feed-forward is a static equilibrium: with the joint torques τ_g
 // there are stance-foot forces f that balance h exactly in all 18 rows (h = Sᵀτ_g + J_cᵀ f),
 // solved here independently by least squares over the whole system

@@ -262,6 +262,14 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
 }  // namespace
 
 int main(int argc, char** argv) {
+  // signals: blocked in every thread from the start (a SIGINT/SIGTERM during the start-up stays
+  // pending and ends the bring-up as a stop request; before, one that came while the URDF was
+  // loading killed the process), taken by the main thread with sigtimedwait
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
   const Options opt = Parse(argc, argv);
   hyq::servo::ServoConfig config;
   std::unique_ptr<hyq::dynamics::Model> model;
@@ -297,13 +305,6 @@ int main(int argc, char** argv) {
                 config.urdf.c_str());
     return 0;
   }
-
-  // signals: blocked in every thread, taken by the main thread with sigtimedwait
-  sigset_t signals;
-  sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &signals, nullptr);
 
   std::vector<std::unique_ptr<hyq::hal::CanChannel>> owned;
   std::vector<hyq::servo::LockstepChannel*> lockstep;
