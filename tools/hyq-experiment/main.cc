@@ -369,6 +369,7 @@ int main(int argc, char** argv) {
       cfg.controller.pid = gains->pid;
       cfg.controller.feedback = gains->feedback;
       cfg.controller.pd_gravity = gains->pd_gravity;
+      cfg.controller.swing_gain_scale = gains->swing_gain_scale;  // controller.gains.swing_scale
     }
     cfg.profile = profile;
     cfg.joints.assign(hal_config.joints.begin(), hal_config.joints.end());
