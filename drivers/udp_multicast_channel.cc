@@ -94,6 +94,12 @@ UdpMulticastChannel::UdpMulticastChannel(const UdpMulticastOptions& options) : o
     fail("IP_MULTICAST_TTL", errno);
   if (setsockopt(tx_fd_, IPPROTO_IP, IP_MULTICAST_LOOP, &loop, sizeof loop) != 0)
     fail("IP_MULTICAST_LOOP", errno);
+  // connect() picks an ephemeral port, and the bus ports (431xx) lie in Linux's ephemeral range:
+  // a sender that drew another bus's port without SO_REUSEADDR made that bus's receiver fail
+  // to bind ("Address already in use", the rare hyq-sim/hyq-servod start-up failure)
+  const int reuse = 1;
+  if (setsockopt(tx_fd_, SOL_SOCKET, SO_REUSEADDR, &reuse, sizeof reuse) != 0)
+    fail("SO_REUSEADDR", errno);
   if (!options_.interface_address.empty() &&
       setsockopt(tx_fd_, IPPROTO_IP, IP_MULTICAST_IF, &iface, sizeof iface) != 0)
     fail("IP_MULTICAST_IF " + options_.interface_address, errno);

@@ -58,6 +58,9 @@ if [[ -z "${HYQ_HIL_NETNS:-}" ]]; then
 fi
 ip link set lo up
 ip route add 224.0.0.0/4 dev lo 2>/dev/null || true
+# keep hyq-sim's default bus ports out of this namespace's ephemeral ports (LCM's and the
+# channels' senders draw from them; one that drew a bus port blocked that bus's receiver)
+sysctl -qw net.ipv4.ip_local_reserved_ports=43101-43104 2>/dev/null || true
 
 sim="$build/tools/hyq-sim/hyq-sim"
 servod="${servod_bin:-$build/tools/hyq-servod/hyq-servod}"
