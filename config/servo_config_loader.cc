@@ -152,7 +152,8 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     const YAML::Node g = r.Map(n, "controller", "gains");
     const std::string gp = "controller.gains";
     r.Keys(g, gp, {"kp_tau", "kd_tau", "kp_acc", "kd_acc", "pid_kp", "pid_ki", "pid_kd",
-                   "pid_i_limit", "pdg_kp", "pdg_kd", "ki_tau", "i_limit_tau", "swing_scale"});
+                   "pid_i_limit", "pdg_kp", "pdg_kd", "ki_tau", "i_limit_tau", "swing_scale",
+                   "pid_swing_scale", "pdg_swing_scale"});
     const double rate = c.rate_hz;
     if (g["kp_tau"].IsDefined()) cc.feedback.kp_tau = PerJoint(r, g, gp, "kp_tau", 0, kMaxKpTau, "N·m/rad");
     if (g["kd_tau"].IsDefined()) cc.feedback.kd_tau = PerJoint(r, g, gp, "kd_tau", 0, kMaxKdTau, "N·m·s/rad");
@@ -168,6 +169,8 @@ void ReadController(const Reader& r, const YAML::Node& root, servo::ServoConfig&
     if (g["pdg_kd"].IsDefined()) cc.pd_gravity.kd = PerJoint(r, g, gp, "pdg_kd", 0, kMaxKdTau, "N·m·s/rad");
     if (g["pid_i_limit"].IsDefined()) cc.pid.i_limit = PerJoint(r, g, gp, "pid_i_limit", 0, 1000, "N·m");
     cc.swing_gain_scale = Bounded(r, g, gp, "swing_scale", cc.swing_gain_scale, 0.05, 1.0);
+    cc.pid_swing_gain_scale = Bounded(r, g, gp, "pid_swing_scale", cc.pid_swing_gain_scale, 0.05, 1.0);
+    cc.pdg_swing_gain_scale = Bounded(r, g, gp, "pdg_swing_scale", cc.pdg_swing_gain_scale, 0.05, 1.0);
   }
   if (n["disturbance_observer"].IsDefined()) {
     const YAML::Node d = r.Map(n, "controller", "disturbance_observer");
@@ -471,13 +474,15 @@ servo::ServoConfig Read(const Reader& r, const YAML::Node& root,
 
   const YAML::Node loop = Section(r, root, "loop");
   r.Keys(loop, "loop", {"rate_hz", "clock", "duration_s", "lockstep_timeout_s",
-                        "lockstep_short_timeout_s", "lockstep_bringup_timeout_s"});
+                        "lockstep_short_timeout_s", "lockstep_bringup_timeout_s", "answer_wait_periods"});
   c.lockstep_timeout_s = Bounded(r, loop, "loop", "lockstep_timeout_s", c.lockstep_timeout_s, 1e-3, 60.0);
   c.lockstep_short_timeout_s = Bounded(r, loop, "loop", "lockstep_short_timeout_s",
                                        c.lockstep_short_timeout_s, 1e-4, 60.0);
   c.lockstep_bringup_timeout_s = Bounded(r, loop, "loop", "lockstep_bringup_timeout_s",
                                          c.lockstep_bringup_timeout_s, 0.1, 3600.0);
   c.rate_hz = Bounded(r, loop, "loop", "rate_hz", c.rate_hz, 50.0, 10000.0);
+  // in periods, so that a new rate keeps it valid (a fraction of the period); 0.3 by default
+  c.answer_wait_s = Bounded(r, loop, "loop", "answer_wait_periods", 0.3, 0.0, 0.5) / c.rate_hz;
   if (loop["clock"].IsDefined())
     c.clock = r.OneOf(loop, "loop", "clock", {"realtime", "lockstep"}) == "lockstep"
                   ? servo::ClockMode::kLockstep

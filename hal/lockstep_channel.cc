@@ -87,7 +87,8 @@ bool WaitForLockstepInputs(const Hal& hal, std::span<LockstepChannel* const> cha
     if (expected > 0 && got >= expected) return true;
     const std::int64_t left = end - MonotonicNs();
     if (left <= 0) return expected == 0;
-    (void)poll(fds.data(), nfds, static_cast<int>(std::max<std::int64_t>(left / 1'000'000, 1)));
+    const timespec ts{static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
+    (void)ppoll(fds.data(), nfds, &ts, nullptr);
   }
 }
 

@@ -49,7 +49,8 @@ class LockstepChannel : public CanChannel {
 
 class Hal;
 
-/// Lock-step after a SYNC (poll on the channels' descriptors): waits until every device of `hal`
+/// After a SYNC (ppoll on the channels' descriptors; lock-step, and the real-time cycle's answer
+/// wait): waits until every device of `hal`
 /// that owes an input has answered on its own bus (one channel per bus, in the HAL's order; a
 /// stray TPDO of another node does not count), at most `timeout_ns` of wall time; when no device
 /// owes one (all below SAFE-OP), `idle_ns` for NMT answers and heartbeats. Returns whether they

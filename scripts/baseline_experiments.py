@@ -20,7 +20,7 @@ tune_gains.py judges: the mean tracking error over ACTIVE (servod.json), a fall 
 fault. Writes DIR/runs/<variant>_<ref>_mu<mu>_<ctrl>_s<seed>/, DIR/results.json, DIR/tables.md
 and DIR/baselines.png. Every number comes from these runs.
 """
-import argparse, json, math, os, statistics, subprocess, sys, time
+import argparse, json, math, os, re, statistics, subprocess, sys, time
 
 HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(HERE, "scripts"))
@@ -37,11 +37,15 @@ DOB = "+dob"
 # alone and takes 30 % off the Figure-Eight; 1000 is the smallest value that gets most of that.
 INT = "+int"
 KI_TAU, I_LIMIT_TAU = 1000.0, 100.0
-# with lower feedback gains on swing legs (controller.gains.swing_scale, every controller):
-# "<controller>+swing"; 0.3 brings the tuned kd 28 on a swing leg to the untuned 8 that held the
-# real-time runs of 2026-12-02 (docs/benchmarks.md)
+# with lower feedback gains on swing legs (controller.gains.swing_scale for the IDs, pid_swing_scale,
+# pdg_swing_scale): "<controller>+swing"; 0.3 brings the tuned kd 28 on a swing leg to the untuned 8
+# that held the real-time runs of 2026-12-02 (docs/benchmarks.md). The shipped sim configuration
+# has the IDs' 0.3 since issue 17 (so "two_stage+swing" is "two_stage" now); "+noswing" sets the
+# controller's scale to 1.0 (off)
 SWING = "+swing"
 SWING_SCALE = 0.3
+NOSWING = "+noswing"
+SWING_KEY = {"pid": "pid_swing_scale", "pd_gravity": "pdg_swing_scale"}  # the rest: swing_scale
 
 
 def base_of(ctrl):
@@ -76,7 +80,7 @@ def chosen_gains(tuning_path):
 
 
 def config_for(out_dir, build, ctrl, gains):
-    dob, integral, swing = DOB in ctrl, INT in ctrl, SWING in ctrl
+    dob, integral, swing, noswing = DOB in ctrl, INT in ctrl, SWING in ctrl, NOSWING in ctrl
     ctrl = base_of(ctrl)
     frag = tune_gains.gains_yaml(ctrl, gains[ctrl]) if ctrl in gains else ""
     text = tune_gains.shipped_sim_config(build, frag) if frag else tune_gains.shipped_sim_config(
@@ -85,8 +89,10 @@ def config_for(out_dir, build, ctrl, gains):
         text = text.replace("\ncontroller:\n", "\ncontroller:\n  disturbance_observer:\n    enabled: true\n", 1)
     if integral:
         text = text.replace("\n  gains:\n", f"\n  gains:\n    ki_tau: {KI_TAU}\n    i_limit_tau: {I_LIMIT_TAU}\n", 1)
-    if swing:
-        text = text.replace("\n  gains:\n", f"\n  gains:\n    swing_scale: {SWING_SCALE}\n", 1)
+    if swing or noswing:  # the shipped file's own key, if any, replaced
+        key = SWING_KEY.get(ctrl, "swing_scale")
+        text = re.sub(rf"\n    {key}:[^\n]*", "", text)
+        text = text.replace("\n  gains:\n", f"\n  gains:\n    {key}: {SWING_SCALE if swing else 1.0}\n", 1)
     p = os.path.join(out_dir, "servo.yaml")
     open(p, "w").write(text)
     return p
@@ -143,10 +149,10 @@ def main():
     ctrls = a.controllers.split(",")
     for c in ctrls:
         mods = c.split("+")[1:]
-        if base_of(c) not in CTRLS or any(m not in ("dob", "int", "swing") for m in mods) or (
+        if base_of(c) not in CTRLS or any(m not in ("dob", "int", "swing", "noswing") for m in mods) or (
                 "int" in mods and base_of(c) not in ("noslip", "two_stage")):
             ap.error(f"--controllers: '{c}' is not one of {', '.join(CTRLS)} (each optionally +dob, "
-                     "+swing; the ID controllers also +int)")
+                     "+swing or +noswing; the ID controllers also +int)")
     refs = ["trot"] if a.quick else list(REFS)
     if a.quick:
         seeds = seeds[:1]
@@ -180,7 +186,7 @@ def main():
     for v in variants:
         for mu in mus_of(v):
             L.append(f"\n### {v} plant, mu = {mu} (mean tracking error over ACTIVE, rad: mean ± sd over seeds {','.join(map(str, seeds_of(v)))}; hyq-sim {' '.join(VARIANTS[v]) or 'defaults'})\n")
-            L.append("| scenario | " + " | ".join(ctrls) + " | two-stage vs PID | two-stage vs PD + g | two-stage + DOB vs two-stage | two-stage + integral vs two-stage | two-stage + swing gains vs two-stage |")
+            L.append("| scenario | " + " | ".join(ctrls) + " | two-stage vs PID | two-stage vs PD + g | two-stage + DOB vs two-stage | two-stage + integral vs two-stage | two-stage vs two-stage without swing gains |")
             L.append("|---|" + "---|" * (len(ctrls) + 5))
             for r in refs:
                 cells, means = [], {}
@@ -193,7 +199,7 @@ def main():
                     cells.append(fmt(errs) + (f" ({len(bad)} of {len(rs)} unstable: " + short_why(bad) + ")" if bad else ""))
                 rel = []
                 for a_, b_ in (("two_stage", "pid"), ("two_stage", "pd_gravity"), ("two_stage" + DOB, "two_stage"), ("two_stage" + INT, "two_stage"),
-                               ("two_stage" + SWING, "two_stage")):
+                               ("two_stage", "two_stage" + NOSWING)):
                     if a_ in means and b_ in means and means[b_] > 0:
                         rel.append(f"{100.0 * (means[a_] - means[b_]) / means[b_]:+.0f} %")
                     else:

@@ -48,11 +48,14 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
                              const ContactEnvironment& env, double dt, IdOutput* out) noexcept {
   const auto qj = q.tail<dynamics::kNumJoints>();
   const auto vj = v.tail<dynamics::kNumJoints>();
-  // the feedback gains' scale per joint: swing legs' joints get swing_gain_scale
+  // the feedback gains' scale per joint: swing legs' joints get this controller's swing scale
+  const double swing = config_.kind == ControllerKind::kPid         ? config_.pid_swing_gain_scale
+                       : config_.kind == ControllerKind::kPdGravity ? config_.pdg_swing_gain_scale
+                                                                    : config_.swing_gain_scale;
   dynamics::VectorJ scale = dynamics::VectorJ::Ones();
   for (int f = 0; f < dynamics::kNumFeet; ++f)
     if (!ref.stance[static_cast<std::size_t>(f)])
-      scale.segment<dynamics::kJointsPerLeg>(dynamics::kJointsPerLeg * f).setConstant(config_.swing_gain_scale);
+      scale.segment<dynamics::kJointsPerLeg>(dynamics::kJointsPerLeg * f).setConstant(swing);
   if (config_.kind == ControllerKind::kPid) {
     *out = IdOutput{};
     out->tau_Nm = pid_.Compute(qj, vj, ref.q, ref.qd, dt, &scale);

@@ -39,10 +39,13 @@ struct ControllerConfig {
   PidGains pid;
   PdGains pd_gravity;  // kPdGravity's PD
   TwoStageSettings id;  // stage2 is forced off for kStage1Id
-  // Every controller's feedback gains (kp, kd; not the integrals, not the feed-forward) on the
-  // joints of a leg whose reference foot is in swing are multiplied by this (1: off). A swing
-  // leg is light: the gains that hold the trunk ring it (docs/baselines.md).
-  double swing_gain_scale = 1.0;
+  // The feedback gains (kp, kd; not the integrals, not the feed-forward) on the joints of a leg
+  // whose reference foot is in swing are multiplied by these (1: off), per controller, each
+  // tuned for its own: the IDs' kp_tau/kd_tau, the PID's, PD + g's. A swing leg is light: the
+  // gains that hold the trunk ring it behind the actuator's lag (docs/baselines.md).
+  double swing_gain_scale = 1.0;      // no-slip, Stage I and two-stage ID
+  double pid_swing_gain_scale = 1.0;  // PID
+  double pdg_swing_gain_scale = 1.0;  // PD + gravity compensation
 };
 
 /// The joint reference of one cycle and the contact situation it assumes.

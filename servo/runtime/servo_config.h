@@ -41,6 +41,14 @@ struct ServoConfig {
   // a late answer costs nothing physical, and a busy machine can starve the simulator that long
   double lockstep_timeout_s = 2.0;
   double lockstep_short_timeout_s = 0.002;  // ... for 1000 cycles after an answer was missing
+  // real time: how long after it began a cycle's read waits for the answers to the last SYNC
+  // that have not arrived yet (as an EtherCAT master waits for its frame to return), so that a
+  // SYNC that went out late, or answers delayed by a stall, still count; never past
+  // (period − this) after the nominal start; 0: no wait.
+  // Counted in the cycle's read time and deadline; beyond it the one late-or-missing policy
+  // (hal timing.max_held_cycles) holds the input. The file gives it in periods
+  // (loop.answer_wait_periods, default 0.3)
+  double answer_wait_s = 300e-6;
   // lock-step: the bring-up's bound in wall time (the HAL's bringup_timeout_s counts simulated
   // time there, which stands still while nobody answers)
   double lockstep_bringup_timeout_s = 30.0;

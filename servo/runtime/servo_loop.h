@@ -15,6 +15,7 @@
 
 #include "dynamics/cycle_dynamics.h"
 #include "hal/hal.h"
+#include "hal/lockstep_channel.h"
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/disturbance_observer.h"
@@ -39,6 +40,7 @@ struct LoopStats {
   std::uint64_t deadline_misses = 0;
   std::uint32_t consecutive_misses = 0, max_consecutive_misses = 0;
   std::uint64_t skipped_cycles = 0;           // kept by the runner
+  std::uint64_t answer_wait_timeouts = 0;     // real time: reads whose answer wait ran out
   std::uint64_t telemetry_drops = 0, event_drops = 0;
   std::uint64_t commands_applied = 0, commands_rejected = 0;
   std::uint64_t controller_fallbacks = 0;
@@ -73,6 +75,14 @@ class ServoLoop {
 
   /// One cycle at `now_ns` (monotonic or virtual); `wakeup_latency_ns` is for the record.
   void Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexcept;
+
+  /// Real time: before each cycle's read, wait at most config.answer_wait_s after the cycle
+  /// began (never past period − answer_wait_s after `now_ns`) for the answers still owed on
+  /// `channels` (one per bus, the HAL's order; not owned). Empty (the default): the read takes
+  /// what has arrived.
+  void SetAnswerWait(std::span<hal::LockstepChannel* const> channels) noexcept {
+    answer_channels_ = channels;
+  }
 
   /// A controlled stop (from any thread, e.g. a signal handler's thread): damping if ACTIVE,
   /// then zero torque and the devices back to PRE-OP.
@@ -141,6 +151,7 @@ class ServoLoop {
   ServoConfig config_;
   const dynamics::Model& model_;
   hal::Hal& hal_;
+  std::span<hal::LockstepChannel* const> answer_channels_;
   TelemetrySink* sink_;
   double dt_;
 

@@ -17,6 +17,10 @@
 #       the real-time clock (1 kHz, SCHED_FIFO daemon and plant) with the shipped configuration,
 #       DURATION s (default 5) of trot on mu = 0.1 with the two-stage ID: no fault, ACTIVE
 #       throughout, no fall, held inputs within their limit (issue 17).
+#   hil_e2e_test.sh BUILD_DIR OUT_DIR plant_stall
+#       real time, shipped configuration: an 8 ms stall of hyq-sim's stepping thread while the
+#       daemon trots; the boards answer from their own thread, so no fault; without that thread
+#       (--bus-thread off) the same stall stops the daemon on input_missing (issue 17).
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR compare
 #       issue 15: the shipped (tuned) PID and two-stage ID, 5 s of trot on mu = 0.1, lock-step,
 #       on a plant that is not the model (hyq-sim --profile realistic --hydraulics off
@@ -117,6 +121,25 @@ PY
 
 # relax_deadline FILE: appends the relaxed deadline policy (no stop for timing) to a servo
 # configuration, for the runs that check something other than timing.
+# real time: can this machine keep a 1 kHz SCHED_FIFO loop at all: 3 s of cyclictest, one thread
+# per core the run uses; a wake-up later than the hold the daemon allows a missing answer means
+# the run's verdict would be the machine's (the CI VM stalled 5-15 ms at times): SKIP (exit 77)
+realtime_preflight() {
+  hold_us=$((1000 * $(sed -n 's/^  max_held_cycles: *\([0-9]*\).*/\1/p' "$here/config/hyq_hal.yaml")))
+  command -v cyclictest >/dev/null || return 0
+  [[ "${HYQ_RT_PREFLIGHT:-1}" == 0 ]] && { echo "hil_e2e_test: HYQ_RT_PREFLIGHT=0: no cyclictest preflight"; return 0; }
+  local cpus=0 cyc worst
+  (($(nproc) >= 2)) && cpus=0,1
+  cyc=$(cyclictest -m -p 80 -i 1000 -d 0 -q -D 3 -t "$( [[ $cpus == 0 ]] && echo 1 || echo 2)" -a "$cpus" 2>&1)
+  worst=$(sed -n 's/.*Max: *\([0-9]*\).*/\1/p' <<<"$cyc" | sort -n | tail -1)
+  if [[ -n "$worst" ]]; then
+    echo "hil_e2e_test: cyclictest (SCHED_FIFO 80, 1 kHz, 3 s, CPUs $cpus) before the run: worst wake-up $worst us (the hold: $hold_us us)"
+    ((worst <= hold_us)) || { echo "SKIP: this machine cannot keep a 1 kHz SCHED_FIFO loop right now (cyclictest's worst wake-up $worst us is longer than the $hold_us us the daemon holds a missing answer): the real-time run would judge the machine, not the daemon"; exit 77; }
+  else
+    echo "hil_e2e_test: cyclictest could not run at SCHED_FIFO ($(head -c 200 <<<"$cyc" | tr '\n' ' ')); the run decides"
+  fi
+}
+
 relax_deadline() {
   printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$1"
 }
@@ -205,21 +228,7 @@ PY
     # thread SCHED_FIFO (80 / 70), each on its own core, 1 kHz, DURATION s of trot on mu = 0.1
     # with the two-stage ID; no fault of any kind, the daemon ACTIVE the whole time, no fall
     dur=${1:-5}
-    hold_us=$((1000 * $(sed -n 's/^  max_held_cycles: *\([0-9]*\).*/\1/p' "$here/config/hyq_hal.yaml")))
-    # first, can this machine keep a 1 kHz SCHED_FIFO loop at all: 3 s of cyclictest, one thread
-    # per core the run uses; a wake-up later than the hold the daemon allows a missing answer
-    # means the run's verdict would be the machine's (the CI VM stalled 5-15 ms at times)
-    if command -v cyclictest >/dev/null; then
-      cpus=0; (($(nproc) >= 2)) && cpus=0,1
-      cyc=$(cyclictest -m -p 80 -i 1000 -d 0 -q -D 3 -t "$( [[ $cpus == 0 ]] && echo 1 || echo 2)" -a "$cpus" 2>&1)
-      worst=$(sed -n 's/.*Max: *\([0-9]*\).*/\1/p' <<<"$cyc" | sort -n | tail -1)
-      if [[ -n "$worst" ]]; then
-        echo "hil_e2e_test: cyclictest (SCHED_FIFO 80, 1 kHz, 3 s, CPUs $cpus) before the run: worst wake-up $worst us (the hold: $hold_us us)"
-        ((worst <= hold_us)) || { echo "SKIP: this machine cannot keep a 1 kHz SCHED_FIFO loop right now (cyclictest's worst wake-up $worst us is longer than the $hold_us us the daemon holds a missing answer): the real-time run would judge the machine, not the daemon"; exit 77; }
-      else
-        echo "hil_e2e_test: cyclictest could not run at SCHED_FIFO ($(head -c 200 <<<"$cyc" | tr '\n' ' ')); the run decides"
-      fi
-    fi
+    realtime_preflight
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration "$dur" --clock realtime --quiet
     rc=$?
     # a bring-up that timed out on lost inputs (no summary from the daemon) while the plant's
@@ -277,6 +286,53 @@ PY
     check_json 'not h["fell_while_active"]'
     check_json 's["held_inputs"]["max_in_row"] <= s["held_inputs"]["limit"]'
     check_json 's["tracking_error_mean_rad"] <= 1.5 * 0.031'
+    ;;
+  plant_stall)
+    # issue 17: hyq-sim's stepping thread stalls for 8 ms of wall time (over twice the 3-cycle
+    # hold) at 4 s of simulated time (--stall: what a preempted core does to the plant) in a
+    # real-time run with the shipped configuration. The boards answer from their own thread (hyq-sim's bus thread) with the
+    # last state there is, so the daemon holds nothing for long and trots on: no fault, and the
+    # answers given during the stall are counted (sim.json stale_answers). Then the same run
+    # with the stepping thread answering (--bus-thread off): the stall leaves the SYNCs
+    # unanswered, and the daemon must stop on input_missing after its hold, which shows the
+    # first run's pass is the bus thread's doing.
+    realtime_preflight
+    judge_machine() {  # $1 OUT, $2 rc: exit 77 when the servo's own core stalled and it faulted
+      "$py" - "$1" "$2" "$hold_us" <<'PY' && { echo "SKIP: the machine stalled the daemon's own core during the run (see the line above); not judged"; exit 77; }
+import json, os, sys
+s = json.load(open(os.path.join(sys.argv[1], "servod.json")))
+w = s["wakeup_latency"]
+faulted = int(sys.argv[2]) != 0
+print(f"hil_e2e_test: servo wake-up p99 {w['p99_us']:.0f} us max {w['max_us']:.0f} us (the hold: {sys.argv[3]} us), exit {sys.argv[2]}")
+sys.exit(0 if faulted and (w["p99_us"] > 1000 or w["max_us"] > float(sys.argv[3])) else 1)
+PY
+    }
+    "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 5 --clock realtime --quiet \
+      --sim-arg=--stall --sim-arg=4:8
+    rc=$?
+    [[ -s "$out/servod.json" && -s "$out/sim.json" ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "no summaries (exit $rc)"; }
+    judge_machine "$out" "$rc"
+    "$py" -c "import json; s=json.load(open('$out/servod.json')); m=json.load(open('$out/sim.json')); print('hil_e2e_test: bus thread on: exit $rc, events', s['events'], 'held', s['held_inputs'], 'stale answers', m['stale_answers'], 'bus thread', m['bus_thread'])"
+    [[ $rc -eq 0 ]] || fail "the daemon did not ride through an 8 ms plant stall (exit $rc)"
+    check_json 'sim["stalls"] == 1 and sim["bus_thread"]["enabled"]'
+    check_json 'sim["stale_answers"] >= 5'   # the stall was answered, from the last state
+    check_json 'set(s["events"]) <= {"bring_up_complete", "enable_command", "stop_request", "damping_done"}'
+    check_json 's["held_inputs"]["max_in_row"] <= s["held_inputs"]["limit"]'
+    check_json 'not h["fell_while_active"]'
+    off="$out/bus_thread_off"
+    "$here/scripts/hil.sh" --build "$build" --out "$off" --duration 5 --clock realtime --quiet \
+      --sim-arg=--stall --sim-arg=4:8 --sim-arg=--bus-thread --sim-arg=off
+    rc=$?
+    [[ -s "$off/servod.json" ]] || { tail -n 20 "$off/servod.log" "$off/sim.log"; fail "no summary without the bus thread (exit $rc)"; }
+    "$py" -c "import json; s=json.load(open('$off/servod.json')); print('hil_e2e_test: bus thread off: exit $rc, events', s['events'], 'held', s['held_inputs'])"
+    [[ $rc -eq 3 ]] || fail "without the bus thread the stall should have stopped the daemon in FAULT (exit 3), got $rc"
+    "$py" - "$off" <<'PY' || fail "without the bus thread the first fault should be input_missing"
+import json, os, sys
+s = json.load(open(os.path.join(sys.argv[1], "servod.json")))
+first = [e for e in s["event_log"] if e["from"] == "active"]
+print("hil_e2e_test: first event out of ACTIVE:", first[0]["reason"] if first else None, first[0]["detail"] if first else "")
+sys.exit(0 if first and first[0]["reason"] == "input_missing" else 1)
+PY
     ;;
   fault)
     spec=$1 reason=$2

@@ -113,6 +113,23 @@ TEST(ServoConfigYaml, EveryDeadlineKeyReachesDeadlineConfig) {
   EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").deadline.stop_in_lockstep);
 }
 
+// issue 17: the real-time read's wait for answers still owed, in periods (at most half of one),
+// so that it scales with the rate
+TEST(ServoConfigYaml, AnswerWaitIsAFractionOfThePeriod) {
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0.25\n").answer_wait_s, 250e-6);
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 800\n  answer_wait_periods: 0.25\n").answer_wait_s, 312.5e-6);
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 500\n").answer_wait_s, 600e-6);  // the default 0.3
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0\n").answer_wait_s, 0.0);
+  EXPECT_DOUBLE_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").answer_wait_s, 300e-6);
+  try {
+    (void)Parse("loop:\n  answer_wait_periods: 0.6\n");
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("loop.answer_wait_periods"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("0.6"), std::string::npos) << e.what();
+  }
+}
+
 TEST(ServoConfigYaml, EveryOperationKeyReachesServoConfig) {
   const servo::ServoConfig c = Parse(R"(operation:
   auto_enable: true
@@ -153,6 +170,8 @@ TEST(ServoConfigYaml, EveryGainKeyReachesControllerConfig) {
     pdg_kp: 650
     pdg_kd: 17
     swing_scale: 0.4
+    pid_swing_scale: 0.6
+    pdg_swing_scale: 0.7
   disturbance_observer:
     enabled: true
     bandwidth_hz: 5
@@ -174,7 +193,23 @@ telemetry:
   EXPECT_DOUBLE_EQ(k.pd_gravity.kp(7), 650.0);
   EXPECT_DOUBLE_EQ(k.pd_gravity.kd(7), 17.0);
   EXPECT_DOUBLE_EQ(k.swing_gain_scale, 0.4);
-  EXPECT_DOUBLE_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").controller.swing_gain_scale, 1.0);
+  EXPECT_DOUBLE_EQ(k.pid_swing_gain_scale, 0.6);
+  EXPECT_DOUBLE_EQ(k.pdg_swing_gain_scale, 0.7);
+  const servo::ControllerConfig robot_cc = config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").controller;
+  EXPECT_DOUBLE_EQ(robot_cc.swing_gain_scale, 1.0);
+  EXPECT_DOUBLE_EQ(robot_cc.pid_swing_gain_scale, 1.0);
+  EXPECT_DOUBLE_EQ(robot_cc.pdg_swing_gain_scale, 1.0);
+  // the simulation's: the IDs' swing legs at 0.3 (issue 17), the baselines' untouched
+  const servo::ControllerConfig sim_cc = config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").controller;
+  EXPECT_DOUBLE_EQ(sim_cc.swing_gain_scale, 0.3);
+  EXPECT_DOUBLE_EQ(sim_cc.pid_swing_gain_scale, 1.0);
+  EXPECT_DOUBLE_EQ(sim_cc.pdg_swing_gain_scale, 1.0);
+  try {  // the same bounds for the PID's
+    (void)config::ParseServoConfig(robot + "controller:\n  gains:\n    pid_swing_scale: 1.5\n", "test.yaml", kConfigDir);
+    ADD_FAILURE() << "no error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("controller.gains.pid_swing_scale"), std::string::npos) << e.what();
+  }
   try {  // a scale that would switch the swing legs' feedback off (or amplify it) is refused
     (void)config::ParseServoConfig(robot + "controller:\n  gains:\n    swing_scale: 0\n", "test.yaml", kConfigDir);
     ADD_FAILURE() << "no error";

@@ -915,9 +915,10 @@ TEST_F(TwoStage, IdIntegralGrowsToItsLimitAndResets) {
   EXPECT_DOUBLE_EQ(ctl.id_integral().norm(), 0.0);
 }
 
-// ControllerConfig::swing_gain_scale: every controller's kp/kd feedback on the joints of a swing
-// leg is scaled, stance legs' untouched, the feed-forward and the integral not at all: the
-// difference between a scaled and an unscaled controller is exactly (1 − s) × that leg's PD
+// ControllerConfig's swing scales (the IDs', the PID's, PD + g's): each controller's kp/kd
+// feedback on the joints of a swing leg is scaled by its own, stance legs' untouched, the
+// feed-forward and the integral not at all: the difference between a scaled and an unscaled
+// controller is exactly (1 − s) × that leg's PD; the other controllers' scales change nothing
 TEST_F(TwoStage, SwingGainScaleScalesOnlyTheSwingLegsFeedback) {
   const IdInput a = Consistent(kLfRh);  // LF and RH in stance, RF and LH in swing
   const auto da = Dyn(a);
@@ -938,11 +939,21 @@ TEST_F(TwoStage, SwingGainScaleScalesOnlyTheSwingLegsFeedback) {
     cfg.feedback.kp_tau.setConstant(400.0);
     cfg.feedback.kd_tau.setConstant(20.0);
     ControllerConfig scaled = cfg;
-    scaled.swing_gain_scale = s;
-    Controller full_ctl(HyqModel(), cfg), scaled_ctl(HyqModel(), scaled);
-    IdOutput full, part;
+    // each controller takes its own scale, and only its own
+    (kind == ControllerKind::kPid         ? scaled.pid_swing_gain_scale
+     : kind == ControllerKind::kPdGravity ? scaled.pdg_swing_gain_scale
+                                          : scaled.swing_gain_scale) = s;
+    ControllerConfig others = cfg;  // every other controller's scale set: no effect on this one
+    others.swing_gain_scale = others.pid_swing_gain_scale = others.pdg_swing_gain_scale = 0.5;
+    (kind == ControllerKind::kPid         ? others.pid_swing_gain_scale
+     : kind == ControllerKind::kPdGravity ? others.pdg_swing_gain_scale
+                                          : others.swing_gain_scale) = 1.0;
+    Controller full_ctl(HyqModel(), cfg), scaled_ctl(HyqModel(), scaled), others_ctl(HyqModel(), others);
+    IdOutput full, part, other;
     (void)full_ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &full);
     (void)scaled_ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &part);
+    (void)others_ctl.Compute(*da, a.q, a.v, ref, env, 1e-3, &other);
+    EXPECT_LT((other.tau_Nm - full.tau_Nm).norm(), 1e-9) << ToString(kind) << ": another controller's scale applied";
     const VectorJ pd = 400.0 * (ref.q - a.q.tail<kNumJoints>()) + 20.0 * (ref.qd - a.v.tail<kNumJoints>());
     for (int j = 0; j < kNumJoints; ++j) {
       const bool swing = !kLfRh[static_cast<std::size_t>(j / 3)];

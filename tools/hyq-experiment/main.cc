@@ -369,7 +369,10 @@ int main(int argc, char** argv) {
       cfg.controller.pid = gains->pid;
       cfg.controller.feedback = gains->feedback;
       cfg.controller.pd_gravity = gains->pd_gravity;
-      cfg.controller.swing_gain_scale = gains->swing_gain_scale;  // controller.gains.swing_scale
+      // controller.gains.swing_scale, pid_swing_scale, pdg_swing_scale
+      cfg.controller.swing_gain_scale = gains->swing_gain_scale;
+      cfg.controller.pid_swing_gain_scale = gains->pid_swing_gain_scale;
+      cfg.controller.pdg_swing_gain_scale = gains->pdg_swing_gain_scale;
     }
     cfg.profile = profile;
     cfg.joints.assign(hal_config.joints.begin(), hal_config.joints.end());

@@ -233,6 +233,7 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
   j["deadline_misses"] = s.deadline_misses;
   j["max_consecutive_misses"] = s.max_consecutive_misses;
   j["skipped_cycles"] = s.skipped_cycles;
+  j["answer_wait_timeouts"] = s.answer_wait_timeouts;
   j["telemetry_drops"] = s.telemetry_drops;
   j["event_drops"] = s.event_drops;
   j["commands_applied"] = s.commands_applied;
@@ -315,7 +316,8 @@ int main(int argc, char** argv) {
   try {
     for (const auto& b : config.hal.buses) {
       auto ch = hyq::drivers::OpenChannel(hyq::drivers::SpecForInterface(b.interface));
-      if (config.clock == hyq::servo::ClockMode::kLockstep) {
+      // lock-step waits for every answer; real time waits for late ones up to loop.answer_wait_us
+      if (config.clock == hyq::servo::ClockMode::kLockstep || config.answer_wait_s > 0.0) {
         auto ls = std::make_unique<hyq::servo::LockstepChannel>(std::move(ch));
         lockstep.push_back(ls.get());
         ch = std::move(ls);
@@ -388,8 +390,10 @@ int main(int argc, char** argv) {
     loop->Start(start_ns);
     if (lockstep_clock)
       hyq::servo::RunLockstep(*loop, *hal, config, lockstep, start_ns);
-    else
+    else {
+      loop->SetAnswerWait(lockstep);
       hyq::servo::RunRealtime(*loop, config, start_ns);
+    }
     servo_done.store(true, std::memory_order_release);
   });
 

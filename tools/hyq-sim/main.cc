@@ -2,11 +2,14 @@
 // IMU (hyq::sim::SimulatedRobot) on virtual CAN (udp::43101..43104 for lf, rf, lh, rh by default)
 // or SocketCAN, so that the unmodified servo daemon drives it like the real robot.
 // docs/simulation.md describes the modes, the models, the faults and this command line.
+#include <sched.h>
 #include <signal.h>
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <ctime>
+#include <utility>
 #include <condition_variable>
 #include <cstdio>
 #include <cstdlib>
@@ -55,6 +58,14 @@ struct Options {
   // on CPU 0 where two cores exist (the daemon's servo thread takes the last one)
   int rt_priority = 70;
   int cpu = hyq::servo::kAutoCpu;
+  // real time only: the boards answer SYNCs from a thread of their own (SimulatedRobot's bus
+  // thread) on the servo's core (the last CPU), SCHED_FIFO below the servo thread: a stalled
+  // physics core then leaves no SYNC unanswered, as the real boards answer whatever the
+  // physics does
+  bool bus_thread = true;
+  int bus_priority = 75;
+  int bus_cpu = hyq::servo::kAutoCpu;
+  std::vector<std::pair<double, double>> stalls;  // --stall T:MS (simulated s, wall ms)
   // the plant profile (issue 15): the named one, then each factor's flag on top of it
   std::string profile = "ideal";
   std::vector<std::function<void(hyq::sim::PlantProfile*)>> profile_overrides;
@@ -76,6 +87,7 @@ struct Options {
       "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
       "               [--lcm-truth [URL]] [--lcm-truth-every N]\n"
       "               [--summary FILE] [--fall-height M] [--rt-priority P] [--cpu N|auto]\n"
+      "               [--bus-thread on|off] [--bus-priority P] [--bus-cpu N|auto] [--stall T:MS]...\n"
       "               [--quiet]\n"
       "The simulated HyQ: the MuJoCo plant behind HyQ's actuator boards and IMU on CAN, driven\n"
       "by the servo daemon (or any HAL master) through NMT, SYNC and RPDOs. docs/simulation.md.\n"
@@ -134,6 +146,16 @@ struct Options {
       "                         the servo thread's 80, with mlockall (default 70; 0: SCHED_OTHER)\n"
       "  --cpu N|auto           realtime mode: pin the stepping thread to CPU N (-1: do not pin;\n"
       "                         default auto: CPU 0 where two or more cores are allowed)\n"
+      "  --bus-thread on|off    realtime mode: the boards answer SYNCs from a thread of their own\n"
+      "                         with the latest state, so a late or stalled physics step leaves\n"
+      "                         no SYNC unanswered (default on; off: the stepping thread answers\n"
+      "                         between its steps)\n"
+      "  --bus-priority P       its SCHED_FIFO priority (default 75: below the servo thread's 80;\n"
+      "                         0: SCHED_OTHER)\n"
+      "  --bus-cpu N|auto       pin it to CPU N (-1: do not pin; default auto: the last CPU, the\n"
+      "                         servo thread's, where two or more cores are allowed)\n"
+      "  --stall T:MS           at simulated time T, stall the stepping thread for MS ms of wall\n"
+      "                         time (what a preempted core does to the plant; tests)\n"
       "  --quiet                no progress line on stderr\n",
       kDefaultLcmUrl);
   std::exit(code);
@@ -251,6 +273,29 @@ Options Parse(int argc, char** argv) {
       const std::string v = value();
       if (v == "auto") o.cpu = hyq::servo::kAutoCpu;
       else o.cpu = static_cast<int>(Number(a, v, -1, "a CPU number >= -1 or auto"));
+    } else if (a == "--bus-thread") {
+      const std::string v = value();
+      if (v == "on") o.bus_thread = true;
+      else if (v == "off") o.bus_thread = false;
+      else Bad(a, "on or off", v);
+    } else if (a == "--bus-priority")
+    {
+      const std::string v = value();
+      o.bus_priority = static_cast<int>(Number(a, v, 0, "a priority 0..99"));
+      if (o.bus_priority > 99) Bad(a, "a priority 0..99", v);
+    }
+    else if (a == "--bus-cpu") {
+      const std::string v = value();
+      if (v == "auto") o.bus_cpu = hyq::servo::kAutoCpu;
+      else o.bus_cpu = static_cast<int>(Number(a, v, -1, "a CPU number >= -1 or auto"));
+    } else if (a == "--stall") {
+      const std::string v = value();
+      const std::size_t colon = v.find(':');
+      if (colon == std::string::npos) Bad(a, "T:MS (simulated seconds, wall milliseconds)", v);
+      const double t = Number(a, v.substr(0, colon), 0, "T:MS with T >= 0 s");
+      const double ms = Number(a, v.substr(colon + 1), 0, "T:MS with MS >= 0 ms");
+      if (ms > 10000) Bad(a, "T:MS with MS <= 10000", v);
+      o.stalls.emplace_back(t, ms);
     } else if (a == "--quiet") o.quiet = true;
     else {
       std::fprintf(stderr, "%s: unknown option '%s' (--help lists them)\n", kTool, argv[i]);
@@ -428,7 +473,15 @@ int Run(const Options& o) {
   hyq_lcm::lcmt_hyq_sim_truth truth_msg{};
   double first_step_wall = 0, last_step_wall = 0, release_wall = 0, release_t = 0;
   double next_progress = 1.0;
+  std::vector<bool> stalled(o.stalls.size(), false);
   robot.SetStepObserver([&](const sim::SimulatedRobot& r) {
+    for (std::size_t i = 0; i < o.stalls.size(); ++i)
+      if (!stalled[i] && r.time_s() + 1e-9 >= o.stalls[i].first) {
+        stalled[i] = true;  // the stepping thread stops, as on a preempted core
+        const auto ns = static_cast<long long>(o.stalls[i].second * 1e6);
+        const timespec d{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
+        nanosleep(&d, nullptr);
+      }
     last_step_wall = WallS();
     if (r.counters().steps == 1) first_step_wall = last_step_wall;
     if (release_wall == 0 && !r.holding()) {
@@ -465,8 +518,14 @@ int Run(const Options& o) {
 
   signal(SIGINT, OnSignal);
   signal(SIGTERM, OnSignal);
-  servo::RealtimeReport rt;
-  servo::RealtimeConfig rtc;
+  servo::RealtimeReport rt, bus_rt;
+  servo::RealtimeConfig rtc, bus_rtc;
+  // the bus thread's CPU, resolved before the stepping thread pins itself (a thread inherits
+  // its creator's affinity: unpinned, it gets the process's whole set back)
+  cpu_set_t all_cpus;
+  CPU_ZERO(&all_cpus);
+  const bool have_cpus = sched_getaffinity(0, sizeof all_cpus, &all_cpus) == 0;
+  bus_rtc.cpu = servo::ResolveCpu(o.bus_cpu, true, -1);
   if (!o.lockstep && o.rt_priority > 0) {
     rtc.priority = o.rt_priority;
     rtc.cpu = servo::ResolveCpu(o.cpu, true, 0);
@@ -480,7 +539,33 @@ int Run(const Options& o) {
   }
   const double start_wall = WallS();
   if (o.lockstep) (void)robot.RunLockStep(g_stop, o.duration_s);
-  else (void)robot.RunRealTime(g_stop, o.duration_s);
+  else {
+    sim::BusThreadConfig bus;
+    bus.enabled = o.bus_thread;
+    bus.setup = [&] {
+      if (bus_rtc.cpu == servo::kNoCpu && have_cpus)
+        (void)sched_setaffinity(0, sizeof all_cpus, &all_cpus);
+      if (o.bus_priority <= 0) {
+        if (bus_rtc.cpu != servo::kNoCpu) {
+          cpu_set_t one;
+          CPU_ZERO(&one);
+          CPU_SET(bus_rtc.cpu, &one);
+          bus_rt.pinned = sched_setaffinity(0, sizeof one, &one) == 0;
+        }
+        return;
+      }
+      bus_rtc.priority = o.bus_priority;
+      bus_rtc.prefault_stack_kib = 64;
+      bus_rt = servo::SetUpRealtimeThread(bus_rtc);
+      for (const std::string& w : bus_rt.warnings)
+        std::fprintf(stderr, "%s: warning: bus thread: %s\n", kTool, w.c_str());
+      if (!o.quiet)
+        std::fprintf(stderr, "%s: bus thread %s, %s\n", kTool,
+                     bus_rt.fifo ? ("SCHED_FIFO " + std::to_string(bus_rtc.priority)).c_str() : "SCHED_OTHER",
+                     bus_rt.pinned ? ("on CPU " + std::to_string(bus_rtc.cpu)).c_str() : "not pinned");
+    };
+    (void)robot.RunRealTime(g_stop, o.duration_s, bus);
+  }
   const double end_wall = WallS();
   if (truth.is_open()) truth.close();
   const std::uint64_t truth_published = truth_lcm ? truth_lcm->published() : 0;
@@ -519,7 +604,8 @@ int Run(const Options& o) {
       << "  \"lockstep_forced_steps\": " << c.lockstep_forced << ",\n"
       << "  \"realtime_overruns\": " << c.realtime_overruns << ",\n"
       << "  \"late_steps\": " << c.late_steps << ",\n"
-      << "  \"dropped_steps\": " << c.dropped_steps << ",\n";
+      << "  \"dropped_steps\": " << c.dropped_steps << ",\n"
+      << "  \"stale_answers\": " << c.stale_answers << ",\n";
     auto hist = [&](const char* key, const servo::LatencyHistogram& h) {
       s << "  \"" << key << "\": {\"count\": " << h.count() << ", \"p50_us\": "
         << 1e-3 * static_cast<double>(h.Percentile(0.5)) << ", \"p99_us\": "
@@ -529,10 +615,18 @@ int Run(const Options& o) {
     };
     hist("step_lateness", robot.step_lateness());
     hist("step_time", robot.step_time());
+    hist("bus_gap", robot.bus_gap());
+    hist("bus_lock_wait", robot.bus_lock_wait());
+    hist("bus_poll_time", robot.bus_poll_time());
     s << "  \"stepping_thread\": {\"fifo\": " << (rt.fifo ? "true" : "false")
       << ", \"priority\": " << (rt.fifo ? rtc.priority : 0)
       << ", \"cpu\": " << (rt.pinned ? rtc.cpu : -1)
       << ", \"memory_locked\": " << (rt.locked ? "true" : "false") << "},\n"
+      << "  \"bus_thread\": {\"enabled\": " << (!o.lockstep && o.bus_thread ? "true" : "false")
+      << ", \"fifo\": " << (bus_rt.fifo ? "true" : "false")
+      << ", \"priority\": " << (bus_rt.fifo ? bus_rtc.priority : 0)
+      << ", \"cpu\": " << (bus_rt.pinned ? bus_rtc.cpu : -1) << "},\n"
+      << "  \"stalls\": " << o.stalls.size() << ",\n"
       << "  \"faults_injected\": " << c.faults_injected << ",\n"
       << "  \"lcm_truth_published\": " << truth_published << ",\n";
     // the boards at exit: their set-points, and whether they tripped on their own timer (a

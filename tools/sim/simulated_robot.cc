@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <thread>
 
 #include <Eigen/Geometry>
 
@@ -175,18 +176,21 @@ void SimulatedRobot::ApplyFaults() noexcept {
 }
 
 void SimulatedRobot::Step() noexcept {
-  ApplyFaults();
   // actuators: saturation, then (Actuation) the delay and the first-order lag (1) with its rate
   // limit, or the hydraulics with the board's torque loop
   bool all_enabled = true, commanding = false;
   constexpr double kReleaseTorqueNm = 0.0;  // any non-zero set-point (1 mN·m resolution)
   dynamics::VectorJ u;
-  for (int j = 0; j < dynamics::kNumJoints; ++j) {
-    const double limit = std::min(config_.joints[static_cast<std::size_t>(j)].torque_limit_Nm,
-                                  model_.limits[static_cast<std::size_t>(j)].effort_Nm);
-    all_enabled = all_enabled && emulator_->outputs_enabled(j);
-    commanding = commanding || std::abs(emulator_->torque_setpoint_Nm(j)) > kReleaseTorqueNm;
-    u(j) = std::clamp(emulator_->torque_setpoint_Nm(j), -limit, limit);
+  {
+    const std::lock_guard<std::mutex> lock(emulator_mutex_);
+    ApplyFaults();
+    for (int j = 0; j < dynamics::kNumJoints; ++j) {
+      const double limit = std::min(config_.joints[static_cast<std::size_t>(j)].torque_limit_Nm,
+                                    model_.limits[static_cast<std::size_t>(j)].effort_Nm);
+      all_enabled = all_enabled && emulator_->outputs_enabled(j);
+      commanding = commanding || std::abs(emulator_->torque_setpoint_Nm(j)) > kReleaseTorqueNm;
+      u(j) = std::clamp(emulator_->torque_setpoint_Nm(j), -limit, limit);
+    }
   }
   {
     const dynamics::VectorQ q = plant_->q();
@@ -204,6 +208,7 @@ void SimulatedRobot::Step() noexcept {
     plant_->Step(tau_applied_);
   }
   ++counters_.steps;
+  sim_now_ns_.store(time_ns(), std::memory_order_relaxed);
   const double z = plant_->q()(2);
   min_base_height_m_ = std::min(min_base_height_m_, z);
   if (!holding_) max_descent_m_s_ = std::max(max_descent_m_s_, -plant_->v()(2));
@@ -228,13 +233,14 @@ void SimulatedRobot::Step() noexcept {
 void SimulatedRobot::UpdateSensors() noexcept {
   const dynamics::VectorQ q = plant_->q();
   const dynamics::VectorV v = plant_->v();
+  dynamics::VectorJ q_measured;
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     double qj = q(7 + j);
     if (cfg_.encoder_noise_rad > 0) qj += cfg_.encoder_noise_rad * Gaussian();
+    q_measured(j) = qj;
     double tau = actuation_->measured_Nm()(j);  // the actuator's output plus the load-cell bias
     if (cfg_.load_cell_noise_Nm > 0) tau += cfg_.load_cell_noise_Nm * Gaussian();
     tau_measured_(j) = tau;
-    emulator_->SetJointState(j, qj, v(6 + j), tau);
   }
   ImuReading r;
   if (holding_) {
@@ -251,11 +257,15 @@ void SimulatedRobot::UpdateSensors() noexcept {
   if (cfg_.accel_noise_m_s2 > 0)
     for (int i = 0; i < 3; ++i) r.specific_force_m_s2(i) += cfg_.accel_noise_m_s2 * Gaussian();
   imu_reported_ = r;
+  const std::lock_guard<std::mutex> lock(emulator_mutex_);
+  for (int j = 0; j < dynamics::kNumJoints; ++j)
+    emulator_->SetJointState(j, q_measured(j), v(6 + j), tau_measured_(j));
   emulator_->SetImu({r.gyro_rad_s(0), r.gyro_rad_s(1), r.gyro_rad_s(2)},
                     {r.specific_force_m_s2(0), r.specific_force_m_s2(1), r.specific_force_m_s2(2)});
 }
 
 void SimulatedRobot::Poll(std::int64_t now_ns) noexcept {
+  const std::lock_guard<std::mutex> lock(emulator_mutex_);
   emulator_->Poll(now_ns);
   for (std::size_t b = 0; b < channels_.size(); ++b) counters_.syncs[b] = channels_[b]->syncs();
 }
@@ -301,7 +311,50 @@ std::uint64_t SimulatedRobot::RunLockStep(const std::atomic<bool>& stop, double 
   return counters_.steps - start;
 }
 
-std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double duration_s) {
+void SimulatedRobot::RunBusThread(const std::atomic<bool>& stop, const BusThreadConfig& bus) noexcept {
+  if (bus.setup) bus.setup();
+  std::array<pollfd, hal::kMaxBuses> fds{};
+  nfds_t n = 0;
+  for (const auto& c : channels_)
+    if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
+  // at least every millisecond: the boards' own timers (the set-point watchdog, heartbeats) run
+  // when nothing arrives, e.g. after the master died
+  constexpr int kTimeoutMs = 1;
+  std::uint64_t seen = 0;
+  std::int64_t last = MonotonicNs();
+  while (!stop.load(std::memory_order_relaxed)) {
+    if (n > 0) {
+      if (poll(fds.data(), n, kTimeoutMs) < 0 && errno != EINTR) break;
+    } else {
+      const timespec ms{0, 1'000'000};
+      nanosleep(&ms, nullptr);
+    }
+    const std::int64_t now = MonotonicNs();
+    bus_gap_.Add(now - last);
+    {
+      std::unique_lock<std::mutex> lock(emulator_mutex_, std::try_to_lock);
+      if (!lock.owns_lock()) {
+        lock.lock();
+        bus_lock_wait_.Add(MonotonicNs() - now);
+      }
+    }
+    // the boards' clocks (heartbeats, the set-point watchdog) are the simulated world's: a
+    // stalled plant stops them too, a stalled master does not
+    Poll(sim_now_ns_.load(std::memory_order_relaxed));
+    last = MonotonicNs();
+    bus_poll_time_.Add(last - now);
+    std::uint64_t syncs = 0;
+    for (std::size_t b = 0; b < channels_.size(); ++b) syncs = std::max(syncs, counters_.syncs[b]);
+    // a SYNC answered while the step that was due is more than a period late: the answer is
+    // the latest state there is, the physics stood still meanwhile
+    if (syncs > seen && now - step_due_ns_.load(std::memory_order_relaxed) > period_ns_)
+      counters_.stale_answers += syncs - seen;
+    seen = syncs;
+  }
+}
+
+std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double duration_s,
+                                          const BusThreadConfig& bus) {
   const int tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
   if (tfd < 0) throw std::runtime_error("simulated robot: timerfd_create failed");
   const std::int64_t t0 = MonotonicNs() + period_ns_;
@@ -315,8 +368,13 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
   std::array<pollfd, hal::kMaxBuses + 1> fds{};
   nfds_t n = 0;
   fds[n++] = {tfd, POLLIN, 0};
-  for (const auto& c : channels_)
-    if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
+  if (!bus.enabled)
+    for (const auto& c : channels_)
+      if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
+  step_due_ns_.store(t0, std::memory_order_relaxed);
+  std::atomic<bool> bus_stop{false};
+  std::thread bus_thread;
+  if (bus.enabled) bus_thread = std::thread([&] { RunBusThread(bus_stop, bus); });
   const auto end_steps = duration_s > 0
                              ? static_cast<std::uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(period_ns_)))
                              : UINT64_MAX;
@@ -324,8 +382,8 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
   std::int64_t due_ns = t0;  // when the next step is due
   while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps) {
     // channels without an fd (loopback) are polled at least every period
-    if (poll(fds.data(), n, n > 1 ? 50 : 1) < 0 && errno != EINTR) break;
-    Poll(MonotonicNs());  // answer SYNCs with the latest state
+    if (poll(fds.data(), n, n > 1 || bus.enabled ? 50 : 1) < 0 && errno != EINTR) break;
+    if (!bus.enabled) Poll(MonotonicNs());  // answer SYNCs with the latest state
     std::uint64_t expirations = 0;
     if (read(tfd, &expirations, sizeof expirations) == static_cast<ssize_t>(sizeof expirations) &&
         expirations > 0) {
@@ -341,15 +399,19 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
         Step();
         const std::int64_t end = MonotonicNs();
         step_time_.Add(end - begin);
-        Poll(end);
+        if (!bus.enabled) Poll(end);
         due_ns += period_ns_;
+        step_due_ns_.store(due_ns, std::memory_order_relaxed);
       }
       if (expirations > steps) {  // periods given up: the simulated time falls behind
         counters_.dropped_steps += expirations - steps;
         due_ns += static_cast<std::int64_t>(expirations - steps) * period_ns_;
+        step_due_ns_.store(due_ns, std::memory_order_relaxed);
       }
     }
   }
+  bus_stop.store(true, std::memory_order_relaxed);
+  if (bus_thread.joinable()) bus_thread.join();
   close(tfd);
   return counters_.steps - start;
 }

@@ -37,6 +37,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <mutex>
 #include <span>
 #include <string>
 #include <vector>
@@ -87,6 +88,17 @@ struct SimulatedRobotCounters {
   std::uint64_t realtime_overruns = 0;  // timer periods that passed unanswered (real time)
   std::uint64_t late_steps = 0;         // real time: steps begun more than a period after due
   std::uint64_t dropped_steps = 0;      // real time: periods given up (more than kMaxCatchUp late)
+  std::uint64_t stale_answers = 0;      // real time: SYNCs answered while the physics step that was
+                                        // due was more than a period late (the latest state held)
+};
+
+/// Real time: the boards answer SYNCs from a thread of their own (the bus thread), as the real
+/// boards answer whatever the physics computer does; `setup` runs first on that thread (its
+/// scheduling: hyq-sim puts it SCHED_FIFO on the servo's core). enabled = false: the stepping
+/// thread answers between its steps (a stalled step then leaves the SYNCs unanswered).
+struct BusThreadConfig {
+  bool enabled = true;
+  std::function<void()> setup;
 };
 
 class SimulatedRobot {
@@ -118,16 +130,20 @@ class SimulatedRobot {
 
   // --- real time ------------------------------------------------------------------------------
   /// Answers whatever arrived (Emulator::Poll(now_ns)); SYNCs are counted, nothing steps.
+  /// Thread-safe against Step() (the emulator is shared under a mutex).
   void Poll(std::int64_t now_ns) noexcept;
   /// One physics step with the latest set-points (actuator model, plant, sensors, faults).
   void Step() noexcept;
   /// Runs until `stop` or `duration_s` of simulated time (0: until stop): physics on absolute
-  /// CLOCK_MONOTONIC deadlines (timerfd, TFD_TIMER_ABSTIME) every period, SYNCs answered as they
-  /// arrive (poll on the channels and the timer), and again after every physics step, so that a
-  /// late step that catches up (at most kMaxCatchUp at once) answers a SYNC at once with the
-  /// latest state instead of after the whole catch-up. Each step's lateness (start − due) goes
-  /// into step_lateness(), its duration into step_time(). Returns the steps taken.
-  std::uint64_t RunRealTime(const std::atomic<bool>& stop, double duration_s);
+  /// CLOCK_MONOTONIC deadlines (timerfd, TFD_TIMER_ABSTIME) every period; SYNCs answered as they
+  /// arrive with the latest state, by the bus thread (`bus`), so that a late or stalled physics
+  /// step (a preempted core, a page fault) never leaves a SYNC unanswered: the answer then
+  /// carries the last step's state, counted in stale_answers. Without the bus thread the
+  /// stepping thread answers between steps, also after each step of a catch-up (at most
+  /// kMaxCatchUp at once). Each step's lateness (start − due) goes into step_lateness(), its
+  /// duration into step_time(). Returns the steps taken.
+  std::uint64_t RunRealTime(const std::atomic<bool>& stop, double duration_s,
+                            const BusThreadConfig& bus = {});
   /// Lock-step until `stop` or `duration_s` of simulated time (0: until stop).
   std::uint64_t RunLockStep(const std::atomic<bool>& stop, double duration_s);
 
@@ -151,6 +167,11 @@ class SimulatedRobot {
   const SimulatedRobotCounters& counters() const noexcept { return counters_; }
   const servo::LatencyHistogram& step_lateness() const noexcept { return step_lateness_; }
   const servo::LatencyHistogram& step_time() const noexcept { return step_time_; }
+  /// real time, the bus thread: the time between its wake-ups (a gap over a period: it was not
+  /// scheduled), and its wait for the emulator's lock (the stepping thread held it)
+  const servo::LatencyHistogram& bus_gap() const noexcept { return bus_gap_; }
+  const servo::LatencyHistogram& bus_lock_wait() const noexcept { return bus_lock_wait_; }
+  const servo::LatencyHistogram& bus_poll_time() const noexcept { return bus_poll_time_; }  // its work
   const std::vector<FaultSpec>& faults() const noexcept { return faults_; }
   Plant& plant() noexcept { return *plant_; }
   const Plant& plant() const noexcept { return *plant_; }
@@ -160,7 +181,8 @@ class SimulatedRobot {
 
  private:
   class SyncCounter;
-  void ApplyFaults() noexcept;
+  void ApplyFaults() noexcept;  // the emulator's lock held
+  void RunBusThread(const std::atomic<bool>& stop, const BusThreadConfig& bus) noexcept;
   void UpdateSensors() noexcept;
   double Gaussian() noexcept;
 
@@ -173,6 +195,11 @@ class SimulatedRobot {
   std::unique_ptr<Actuation> actuation_;
   Eigen::Vector3d gyro_bias_, accel_bias_;  // the config's plus the profile's
   std::unique_ptr<hal::Emulator> emulator_;
+  // the emulator (board state, set-points, sensor values, injected faults) is shared by the
+  // stepping thread and, in real time, the bus thread; critical sections copy a few numbers
+  std::mutex emulator_mutex_;
+  std::atomic<std::int64_t> step_due_ns_{0};  // real time: when the next physics step is due
+  std::atomic<std::int64_t> sim_now_ns_{0};   // simulated time, for the bus thread's boards
   dynamics::VectorQ q_hold_;
   dynamics::VectorJ tau_applied_ = dynamics::VectorJ::Zero();
   dynamics::VectorJ tau_measured_ = dynamics::VectorJ::Zero();
@@ -182,6 +209,7 @@ class SimulatedRobot {
   std::vector<std::uint8_t> fault_state_;  // 0 pending, 1 active, 2 done
   SimulatedRobotCounters counters_;
   servo::LatencyHistogram step_lateness_, step_time_;  // real time only
+  servo::LatencyHistogram bus_gap_, bus_lock_wait_, bus_poll_time_;  // real time, the bus thread
   bool holding_;
   double max_descent_m_s_ = 0.0;
   bool fell_ = false;
