@@ -1,18 +1,20 @@
 #!/usr/bin/env bash
 # Thread-sanitizer run over the daemon's threads (servo, telemetry, main/signals): builds
-# hyq-servod and the telemetry tests with the tsan preset, runs the telemetry/ring tests, then a
+# hyq-servod, the telemetry tests and the simulated robot's tests with the tsan preset, runs the
+# telemetry/ring tests and hyq-sim's real-time loop (stepping thread and bus thread), then a
 # 3 s HIL trot (release hyq-sim, tsan hyq-servod, command channel on) and fails on any
 # ThreadSanitizer report. The tsan build is ~10x slower, so the deadline policy is relaxed for
 # this run only (the safety would otherwise, rightly, stop the robot).
 #   scripts/tsan_check.sh        (scripts/test.sh runs it unless HYQ_SKIP_TSAN=1)
 set -euo pipefail
 cd "$(dirname "$0")/.."
-case "${1:-}" in -h|--help) sed -n '2,7p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;; esac
+case "${1:-}" in -h|--help) sed -n '2,8p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;; esac
 release="${HYQ_RELEASE_BUILD:-build/ci}"
 cmake --preset tsan >/dev/null
-cmake --build --preset tsan --target hyq-servod telemetry_test spsc_ring_test
+cmake --build --preset tsan --target hyq-servod telemetry_test spsc_ring_test hil_test
 # (the command-channel test rate-limits on the wall clock: under TSan it may get one retry)
-ctest --test-dir build/tsan -R "Telemetry|SpscRing|CommandChannel" --output-on-failure --repeat until-pass:2
+ctest --test-dir build/tsan -R "Telemetry|SpscRing|CommandChannel|SimulatedRobot\.RealTime" \
+  --output-on-failure --repeat until-pass:2
 out=build/tsan/tsan-hil
 mkdir -p "$out"
 cfg="$PWD/build/tsan/tsan_servo.yaml"
