@@ -2,14 +2,16 @@
 # Servo benchmarks (issues #7, #8, #17), reproducing docs/benchmarks.md:
 #   (a) real time at 1 kHz with the SHIPPED configuration (config/hyq_servo_sim.yaml and
 #       config/hyq_hal.yaml, nothing relaxed): hyq-sim --mode realtime (stepping thread
-#       SCHED_FIFO 70 on CPU 0) + hyq-servod --clock realtime (servo thread SCHED_FIFO 80 on the
-#       last CPU), DURATION s of trot on mu = 0.1 with the two-stage ID, lcm-logger recording,
+#       SCHED_FIFO 70 on CPU 0, the boards' bus thread SCHED_FIFO 75 on the last CPU) +
+#       hyq-servod --clock realtime (servo thread SCHED_FIFO 80 on the last CPU), DURATION s of
+#       trot on mu = 0.1 with the two-stage ID, lcm-logger recording,
 #       RUNS times; cyclictest beside each run for the whole of it (started with hil.sh, stopped
 #       with SIGINT when it ends);
 #   (b) lock-step speed: the same trot, lock-step (sim.json "speed");
 #   (c) with --soak: the 10-minute real-time soak (ctest hil_e2e.realtime_soak_10min, HYQ_SOAK=1).
-# It prints, per run: active time, final mode, tracking error, deadline misses, held inputs,
-# the plant's late steps, wake-up p50/p99/p99.9/max beside cyclictest's, and the per-cycle
+# First, 10 s of cyclictest alone on the idle machine (DIR/cyclictest_idle.txt): what the machine
+# itself does. It prints, per run: active time, final mode, tracking error, deadline misses, held
+# inputs, the plant's late steps, wake-up p50/p99/p99.9/max beside cyclictest's, and the per-cycle
 # two-stage ID time (mean and worst over the run) beside the paper's 1 ms mean / 36 ms worst.
 #
 #   scripts/benchmark_servo.sh [--out DIR] [--duration S] [--runs N] [--no-lockstep] [--soak]
@@ -25,7 +27,7 @@ while (($#)); do
     --runs) runs="$2"; shift ;;
     --no-lockstep) lockstep=0 ;;
     --soak) soak=1 ;;
-    -h|--help) sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "benchmark_servo.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
   shift
@@ -59,6 +61,11 @@ rt_run() {
   cat "$out/$name.out"
 }
 
+echo "benchmark_servo.sh: 10 s of cyclictest alone first (the machine itself) ..." >&2
+echo "\$ cyclictest -m -p 80 -i 1000 -q -h 2000 -D 10 -t 2 -a > $out/cyclictest_idle.txt" >>"$log"
+cyclictest -m -p 80 -i 1000 -q -h 2000 -D 10 -t 2 -a >"$out/cyclictest_idle.txt" 2>&1
+echo "benchmark_servo.sh: cyclictest alone, worst wake-up per CPU (us): $(sed -n 's/^# Max Latencies: *//p' "$out/cyclictest_idle.txt")" >&2
+
 names=()
 for ((r = 1; r <= runs; ++r)); do rt_run "rt_$r"; names+=("rt_$r"); done
 
@@ -89,8 +96,8 @@ def cyc(path):
         return float("inf")
     return dict(n=n, p50=pct(0.5), p99=pct(0.99), p999=pct(0.999), max=mx, overflows=ovf)
 expected = {"bring_up_complete", "enable_command", "stop_request", "damping_done"}
-L = ["| run | active s | final mode | faults | mean / max error (rad) | deadline misses (max in a row) | skipped | held inputs (longest run / limit) | plant late / dropped steps | wake-up p50 / p99 / p99.9 / max (µs) | cyclictest p50 / p99 / p99.9 / max (µs) | two-stage ID per cycle mean / worst (µs) | fallbacks | sim speed |",
-     "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+L = ["| run | active s | final mode | faults | mean / max error (rad) | deadline misses (max in a row) | skipped | held inputs (longest run / limit) | answer waits run out | plant late / dropped steps / stale answers | wake-up p50 / p99 / p99.9 / max (µs) | cyclictest p50 / p99 / p99.9 / max (µs) | two-stage ID per cycle mean / worst (µs) | fallbacks | sim speed |",
+     "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
 ok = True
 for name in names:
     d = os.path.join(out, name)
@@ -109,7 +116,8 @@ for name in names:
     L.append(f"| {name} | {s['active_s']:.2f} | {s['final_mode']} | {faults} | {s['tracking_error_mean_rad']:.4f} / {s['tracking_error_max_rad']:.4f} | "
              f"{s['deadline_misses']} ({s['max_consecutive_misses']}) | {s['skipped_cycles']} | "
              f"{hi.get('total', '?')} ({hi.get('max_in_row', '?')} / {hi.get('limit', '?')}) | "
-             f"{sim.get('late_steps', 'n/a') if rt else 'n/a'} / {sim.get('dropped_steps', 'n/a') if rt else 'n/a'} | {wk} | {ct} | "
+             f"{s.get('answer_wait_timeouts', 'n/a') if rt else 'n/a'} | "
+             f"{sim.get('late_steps', 'n/a') if rt else 'n/a'} / {sim.get('dropped_steps', 'n/a') if rt else 'n/a'} / {sim.get('stale_answers', 'n/a') if rt else 'n/a'} | {wk} | {ct} | "
              f"{k['mean_us']:.1f} / {k['max_us']:.0f} | {s['controller_fallbacks']} | {sim.get('speed', 0):.2f} |")
 L += ["", "The paper (Zapolsky, Drumwright et al.): the two-stage ID took 1 ms per cycle on average and 36 ms at worst over sixty seconds of trotting."]
 open(os.path.join(out, "summary.md"), "w").write("\n".join(L) + "\n")

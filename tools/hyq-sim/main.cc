@@ -176,6 +176,19 @@ double Number(std::string_view flag, const std::string& v, double min, std::stri
 }
 
 
+int Priority(std::string_view flag, const std::string& v) {
+  const double p = Number(flag, v, 0, "a priority 0..99");
+  if (p > 99 || p != std::floor(p)) Bad(flag, "a priority 0..99", v);
+  return static_cast<int>(p);
+}
+
+int Cpu(std::string_view flag, const std::string& v) {
+  if (v == "auto") return hyq::servo::kAutoCpu;
+  const double c = Number(flag, v, -1, "a CPU number >= -1 or auto");
+  if (c != std::floor(c)) Bad(flag, "a CPU number >= -1 or auto", v);
+  return static_cast<int>(c);
+}
+
 Options Parse(int argc, char** argv) {
   Options o;
   for (int i = 1; i < argc; ++i) {
@@ -267,28 +280,16 @@ Options Parse(int argc, char** argv) {
       o.lcm_truth_every = static_cast<int>(Number(a, value(), 1, "an integer >= 1"));
     else if (a == "--summary") o.summary = value();
     else if (a == "--fall-height") o.robot.fall_height_m = Number(a, value(), 0, "metres >= 0");
-    else if (a == "--rt-priority")
-      o.rt_priority = static_cast<int>(Number(a, value(), 0, "a priority 0..99"));
-    else if (a == "--cpu") {
-      const std::string v = value();
-      if (v == "auto") o.cpu = hyq::servo::kAutoCpu;
-      else o.cpu = static_cast<int>(Number(a, v, -1, "a CPU number >= -1 or auto"));
-    } else if (a == "--bus-thread") {
+    else if (a == "--rt-priority") o.rt_priority = Priority(a, value());
+    else if (a == "--cpu") o.cpu = Cpu(a, value());
+    else if (a == "--bus-thread") {
       const std::string v = value();
       if (v == "on") o.bus_thread = true;
       else if (v == "off") o.bus_thread = false;
       else Bad(a, "on or off", v);
-    } else if (a == "--bus-priority")
-    {
-      const std::string v = value();
-      o.bus_priority = static_cast<int>(Number(a, v, 0, "a priority 0..99"));
-      if (o.bus_priority > 99) Bad(a, "a priority 0..99", v);
-    }
-    else if (a == "--bus-cpu") {
-      const std::string v = value();
-      if (v == "auto") o.bus_cpu = hyq::servo::kAutoCpu;
-      else o.bus_cpu = static_cast<int>(Number(a, v, -1, "a CPU number >= -1 or auto"));
-    } else if (a == "--stall") {
+    } else if (a == "--bus-priority") o.bus_priority = Priority(a, value());
+    else if (a == "--bus-cpu") o.bus_cpu = Cpu(a, value());
+    else if (a == "--stall") {
       const std::string v = value();
       const std::size_t colon = v.find(':');
       if (colon == std::string::npos) Bad(a, "T:MS (simulated seconds, wall milliseconds)", v);
