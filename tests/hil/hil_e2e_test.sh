@@ -121,13 +121,15 @@ PY
 
 # relax_deadline FILE: appends the relaxed deadline policy (no stop for timing) to a servo
 # configuration, for the runs that check something other than timing.
-# real time: can this machine keep a 1 kHz SCHED_FIFO loop at all: 3 s of cyclictest, one thread
-# per core the run uses; a wake-up later than the hold the daemon allows a missing answer means
-# the run's verdict would be the machine's (the CI VM stalled 5-15 ms at times): SKIP (exit 77)
+# real time, with HYQ_RT_PREFLIGHT=1 only: can this machine keep a 1 kHz SCHED_FIFO loop at all:
+# 3 s of cyclictest, one thread per core the run uses; a wake-up later than the hold the daemon
+# allows a missing answer: SKIP (exit 77). Off by default since issue 17's bus thread and answer
+# wait: the daemon now rides through single stalls of either core far longer than the hold (the
+# VM's 9-16 ms), and a run the machine did break is still recognised after it (below)
 realtime_preflight() {
   hold_us=$((1000 * $(sed -n 's/^  max_held_cycles: *\([0-9]*\).*/\1/p' "$here/config/hyq_hal.yaml")))
   command -v cyclictest >/dev/null || return 0
-  [[ "${HYQ_RT_PREFLIGHT:-1}" == 0 ]] && { echo "hil_e2e_test: HYQ_RT_PREFLIGHT=0: no cyclictest preflight"; return 0; }
+  [[ "${HYQ_RT_PREFLIGHT:-0}" == 1 ]] || return 0
   local cpus=0 cyc worst
   (($(nproc) >= 2)) && cpus=0,1
   cyc=$(cyclictest -m -p 80 -i 1000 -d 0 -q -D 3 -t "$( [[ $cpus == 0 ]] && echo 1 || echo 2)" -a "$cpus" 2>&1)
