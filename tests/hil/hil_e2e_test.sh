@@ -264,7 +264,10 @@ limit_us = 1000.0 * s["held_inputs"]["limit"]
 faulted = int(sys.argv[2]) != 0 or not set(s["events"]) <= {"bring_up_complete", "enable_command", "stop_request", "damping_done"}
 print(f"hil_e2e_test: scheduling latency at SCHED_FIFO during the run: plant step lateness p99 {plant['p99_us']:.0f} us max {plant['max_us']:.0f} us, "
       f"servo wake-up p99 {wake['p99_us']:.0f} us max {wake['max_us']:.0f} us (one period: 1000 us, the hold: {limit_us:.0f} us)")
-stalled = plant["p99_us"] > 1000 or wake["p99_us"] > 1000 or plant["max_us"] > limit_us or wake["max_us"] > limit_us
+cyc = s["cycle_time"]
+print(f"hil_e2e_test: servo cycle time p99 {cyc['p99_us']:.0f} us max {cyc['max_us']:.0f} us (its work is ~0.2 ms: over a period, the VM took the core mid-cycle)")
+stalled = (plant["p99_us"] > 1000 or wake["p99_us"] > 1000 or plant["max_us"] > limit_us or wake["max_us"] > limit_us
+           or cyc["max_us"] > 1000)
 if faulted and stalled and s["final_mode"] != "stopped":
     print(f"hil_e2e_test: FAIL: the machine stalled, but the daemon ended in {s['final_mode']!r}, not stopped")
     sys.exit(1)
@@ -299,14 +302,21 @@ PY
     # unanswered, and the daemon must stop on input_missing after its hold, which shows the
     # first run's pass is the bus thread's doing.
     realtime_preflight
-    judge_machine() {  # $1 OUT, $2 rc: exit 77 when the servo's own core stalled and it faulted
-      "$py" - "$1" "$2" "$hold_us" <<'PY' && { echo "SKIP: the machine stalled the daemon's own core during the run (see the line above); not judged"; exit 77; }
+    judge_machine() {  # $1 OUT, $2 rc [$3 the fault expected]: exit 77 when the servo's own
+      # core stalled (late wake-ups, a cycle over a period) and it faulted on something else
+      "$py" - "$1" "$2" "$hold_us" "${3:-}" <<'PY' && { echo "SKIP: the machine stalled the daemon's own core during the run (see the line above); not judged"; exit 77; }
 import json, os, sys
 s = json.load(open(os.path.join(sys.argv[1], "servod.json")))
-w = s["wakeup_latency"]
-faulted = int(sys.argv[2]) != 0
-print(f"hil_e2e_test: servo wake-up p99 {w['p99_us']:.0f} us max {w['max_us']:.0f} us (the hold: {sys.argv[3]} us), exit {sys.argv[2]}")
-sys.exit(0 if faulted and (w["p99_us"] > 1000 or w["max_us"] > float(sys.argv[3])) else 1)
+w, c = s["wakeup_latency"], s["cycle_time"]
+first = [e["reason"] for e in s["event_log"] if e["from"] == "active"][:1]
+faulted = int(sys.argv[2]) != 0 and first != [sys.argv[4]]
+print(f"hil_e2e_test: servo wake-up p99 {w['p99_us']:.0f} us max {w['max_us']:.0f} us, cycle max {c['max_us']:.0f} us "
+      f"(the hold: {sys.argv[3]} us), exit {sys.argv[2]}, first event out of ACTIVE {first}")
+# a deadline fault is timing alone: the daemon's work is ~0.2 ms of the 0.9 ms budget, so five
+# misses in a row are the machine taking its core, whatever the wake-up statistics say
+stalled = (w["p99_us"] > 1000 or w["max_us"] > float(sys.argv[3]) or c["max_us"] > 1000
+           or first == ["deadline_miss"])
+sys.exit(0 if faulted and stalled else 1)
 PY
     }
     "$here/scripts/hil.sh" --build "$build" --out "$out" --duration 5 --clock realtime --quiet \
@@ -326,6 +336,7 @@ PY
       --sim-arg=--stall --sim-arg=4:8 --sim-arg=--bus-thread --sim-arg=off
     rc=$?
     [[ -s "$off/servod.json" ]] || { tail -n 20 "$off/servod.log" "$off/sim.log"; fail "no summary without the bus thread (exit $rc)"; }
+    judge_machine "$off" "$rc" input_missing
     "$py" -c "import json; s=json.load(open('$off/servod.json')); print('hil_e2e_test: bus thread off: exit $rc, events', s['events'], 'held', s['held_inputs'])"
     [[ $rc -eq 3 ]] || fail "without the bus thread the stall should have stopped the daemon in FAULT (exit 3), got $rc"
     "$py" - "$off" <<'PY' || fail "without the bus thread the first fault should be input_missing"
