@@ -95,16 +95,15 @@ void ServoLoop::Start(std::int64_t now_ns) noexcept {
 void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexcept {
   // lock-step runs on virtual time: the deadline there is the thread's own CPU time
   const std::int64_t cpu0 = config_.clock == ClockMode::kLockstep ? ThreadCpuNs() : 0;
-  StageClock clock(MonotonicNs());
+  const std::int64_t start = MonotonicNs();
+  StageClock clock(start);
   BeginCycle(now_ns);
   if (!answer_channels_.empty()) {
     // up to answer_wait after the cycle began (a late wake-up found the boards' answers late
     // too: a stall of the core they share), but never past (period − answer_wait) after the
     // nominal start, so that the rest of the cycle keeps its time
-    const auto wait = static_cast<std::int64_t>(config_.answer_wait_s * 1e9);
-    const auto period = static_cast<std::int64_t>(1e9 / config_.rate_hz);
-    const std::int64_t start = MonotonicNs();
-    const std::int64_t until = std::min(std::max(now_ns, start) + wait, now_ns + period - wait);
+    const std::int64_t until = std::min(std::max(now_ns, start) + answer_wait_ns_,
+                                        now_ns + period_ns_ - answer_wait_ns_);
     const std::int64_t left = until - start;
     if (left > 0 && !hal::WaitForLockstepInputs(hal_, answer_channels_, left, 0)) ++stats_.answer_wait_timeouts;
   }

@@ -82,6 +82,8 @@ class ServoLoop {
   /// what has arrived.
   void SetAnswerWait(std::span<hal::LockstepChannel* const> channels) noexcept {
     answer_channels_ = channels;
+    answer_wait_ns_ = static_cast<std::int64_t>(config_.answer_wait_s * 1e9);
+    period_ns_ = static_cast<std::int64_t>(1e9 / config_.rate_hz);
   }
 
   /// A controlled stop (from any thread, e.g. a signal handler's thread): damping if ACTIVE,
@@ -152,6 +154,7 @@ class ServoLoop {
   const dynamics::Model& model_;
   hal::Hal& hal_;
   std::span<hal::LockstepChannel* const> answer_channels_;
+  std::int64_t answer_wait_ns_ = 0, period_ns_ = 0;  // set with answer_channels_
   TelemetrySink* sink_;
   double dt_;
 

@@ -316,7 +316,7 @@ int main(int argc, char** argv) {
   try {
     for (const auto& b : config.hal.buses) {
       auto ch = hyq::drivers::OpenChannel(hyq::drivers::SpecForInterface(b.interface));
-      // lock-step waits for every answer; real time waits for late ones up to loop.answer_wait_us
+      // lock-step waits for every answer; real time waits for late ones (loop.answer_wait_periods)
       if (config.clock == hyq::servo::ClockMode::kLockstep || config.answer_wait_s > 0.0) {
         auto ls = std::make_unique<hyq::servo::LockstepChannel>(std::move(ch));
         lockstep.push_back(ls.get());

@@ -617,7 +617,6 @@ int Run(const Options& o) {
     hist("step_lateness", robot.step_lateness());
     hist("step_time", robot.step_time());
     hist("bus_gap", robot.bus_gap());
-    hist("bus_lock_wait", robot.bus_lock_wait());
     hist("bus_poll_time", robot.bus_poll_time());
     s << "  \"stepping_thread\": {\"fifo\": " << (rt.fifo ? "true" : "false")
       << ", \"priority\": " << (rt.fifo ? rtc.priority : 0)

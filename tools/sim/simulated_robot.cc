@@ -141,8 +141,8 @@ double SimulatedRobot::Gaussian() noexcept {
   return u * m;
 }
 
-void SimulatedRobot::ApplyFaults() noexcept {
-  const double t = time_s() + 1e-9;
+void SimulatedRobot::ApplyFaults(double t_s) noexcept {
+  const double t = t_s + 1e-9;
   for (std::size_t i = 0; i < faults_.size(); ++i) {
     const FaultSpec& f = faults_[i];
     std::uint8_t& st = fault_state_[i];
@@ -181,16 +181,23 @@ void SimulatedRobot::Step() noexcept {
   bool all_enabled = true, commanding = false;
   constexpr double kReleaseTorqueNm = 0.0;  // any non-zero set-point (1 mN·m resolution)
   dynamics::VectorJ u;
-  {
-    const std::lock_guard<std::mutex> lock(emulator_mutex_);
-    ApplyFaults();
+  if (bus_thread_owns_emulator_) {
+    SetpointFrame f;
+    while (setpoint_frames_.TryPop(&f)) setpoints_ = f;  // the newest the boards hold
+  } else {
+    ApplyFaults(time_s());
     for (int j = 0; j < dynamics::kNumJoints; ++j) {
-      const double limit = std::min(config_.joints[static_cast<std::size_t>(j)].torque_limit_Nm,
-                                    model_.limits[static_cast<std::size_t>(j)].effort_Nm);
-      all_enabled = all_enabled && emulator_->outputs_enabled(j);
-      commanding = commanding || std::abs(emulator_->torque_setpoint_Nm(j)) > kReleaseTorqueNm;
-      u(j) = std::clamp(emulator_->torque_setpoint_Nm(j), -limit, limit);
+      const auto i = static_cast<std::size_t>(j);
+      setpoints_.tau[i] = emulator_->torque_setpoint_Nm(j);
+      setpoints_.enabled[i] = emulator_->outputs_enabled(j);
     }
+  }
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    const double limit = std::min(config_.joints[i].torque_limit_Nm, model_.limits[i].effort_Nm);
+    all_enabled = all_enabled && setpoints_.enabled[i];
+    commanding = commanding || std::abs(setpoints_.tau[i]) > kReleaseTorqueNm;
+    u(j) = std::clamp(setpoints_.tau[i], -limit, limit);
   }
   {
     const dynamics::VectorQ q = plant_->q();
@@ -233,14 +240,17 @@ void SimulatedRobot::Step() noexcept {
 void SimulatedRobot::UpdateSensors() noexcept {
   const dynamics::VectorQ q = plant_->q();
   const dynamics::VectorV v = plant_->v();
-  dynamics::VectorJ q_measured;
+  SensorFrame f;
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
     double qj = q(7 + j);
     if (cfg_.encoder_noise_rad > 0) qj += cfg_.encoder_noise_rad * Gaussian();
-    q_measured(j) = qj;
+    f.q[i] = qj;
+    f.v[i] = v(6 + j);
     double tau = actuation_->measured_Nm()(j);  // the actuator's output plus the load-cell bias
     if (cfg_.load_cell_noise_Nm > 0) tau += cfg_.load_cell_noise_Nm * Gaussian();
     tau_measured_(j) = tau;
+    f.tau[i] = tau;
   }
   ImuReading r;
   if (holding_) {
@@ -257,15 +267,24 @@ void SimulatedRobot::UpdateSensors() noexcept {
   if (cfg_.accel_noise_m_s2 > 0)
     for (int i = 0; i < 3; ++i) r.specific_force_m_s2(i) += cfg_.accel_noise_m_s2 * Gaussian();
   imu_reported_ = r;
-  const std::lock_guard<std::mutex> lock(emulator_mutex_);
-  for (int j = 0; j < dynamics::kNumJoints; ++j)
-    emulator_->SetJointState(j, q_measured(j), v(6 + j), tau_measured_(j));
-  emulator_->SetImu({r.gyro_rad_s(0), r.gyro_rad_s(1), r.gyro_rad_s(2)},
-                    {r.specific_force_m_s2(0), r.specific_force_m_s2(1), r.specific_force_m_s2(2)});
+  f.gyro = {r.gyro_rad_s(0), r.gyro_rad_s(1), r.gyro_rad_s(2)};
+  f.accel = {r.specific_force_m_s2(0), r.specific_force_m_s2(1), r.specific_force_m_s2(2)};
+  if (bus_thread_owns_emulator_) {
+    (void)sensor_frames_.TryPush(f);  // full: the bus thread is stalled; it takes the next step's
+    return;
+  }
+  SetEmulatorSensors(f);
+}
+
+void SimulatedRobot::SetEmulatorSensors(const SensorFrame& f) noexcept {
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    emulator_->SetJointState(j, f.q[i], f.v[i], f.tau[i]);
+  }
+  emulator_->SetImu(f.gyro, f.accel);
 }
 
 void SimulatedRobot::Poll(std::int64_t now_ns) noexcept {
-  const std::lock_guard<std::mutex> lock(emulator_mutex_);
   emulator_->Poll(now_ns);
   for (std::size_t b = 0; b < channels_.size(); ++b) counters_.syncs[b] = channels_[b]->syncs();
 }
@@ -331,16 +350,23 @@ void SimulatedRobot::RunBusThread(const std::atomic<bool>& stop, const BusThread
     }
     const std::int64_t now = MonotonicNs();
     bus_gap_.Add(now - last);
-    {
-      std::unique_lock<std::mutex> lock(emulator_mutex_, std::try_to_lock);
-      if (!lock.owns_lock()) {
-        lock.lock();
-        bus_lock_wait_.Add(MonotonicNs() - now);
-      }
+    // the newest sensor values the stepping thread handed over, the faults due, the answers;
+    // the boards' clocks (heartbeats, the set-point watchdog, the faults) are the simulated
+    // world's: a stalled plant stops them too, a stalled master does not
+    SensorFrame f;
+    bool fresh = false;
+    while (sensor_frames_.TryPop(&f)) fresh = true;
+    if (fresh) SetEmulatorSensors(f);
+    const std::int64_t sim_now = sim_now_ns_.load(std::memory_order_relaxed);
+    ApplyFaults(1e-9 * static_cast<double>(sim_now));
+    Poll(sim_now);
+    SetpointFrame out;
+    for (int j = 0; j < dynamics::kNumJoints; ++j) {
+      const auto i = static_cast<std::size_t>(j);
+      out.tau[i] = emulator_->torque_setpoint_Nm(j);
+      out.enabled[i] = emulator_->outputs_enabled(j);
     }
-    // the boards' clocks (heartbeats, the set-point watchdog) are the simulated world's: a
-    // stalled plant stops them too, a stalled master does not
-    Poll(sim_now_ns_.load(std::memory_order_relaxed));
+    (void)setpoint_frames_.TryPush(out);  // full: the stepping thread is stalled; the next one
     last = MonotonicNs();
     bus_poll_time_.Add(last - now);
     std::uint64_t syncs = 0;
@@ -374,7 +400,10 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
   step_due_ns_.store(t0, std::memory_order_relaxed);
   std::atomic<bool> bus_stop{false};
   std::thread bus_thread;
-  if (bus.enabled) bus_thread = std::thread([&] { RunBusThread(bus_stop, bus); });
+  if (bus.enabled) {
+    bus_thread_owns_emulator_ = true;
+    bus_thread = std::thread([&] { RunBusThread(bus_stop, bus); });
+  }
   const auto end_steps = duration_s > 0
                              ? static_cast<std::uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(period_ns_)))
                              : UINT64_MAX;
@@ -412,6 +441,7 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
   }
   bus_stop.store(true, std::memory_order_relaxed);
   if (bus_thread.joinable()) bus_thread.join();
+  bus_thread_owns_emulator_ = false;
   close(tfd);
   return counters_.steps - start;
 }

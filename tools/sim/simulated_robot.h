@@ -37,7 +37,6 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <span>
 #include <string>
 #include <vector>
@@ -47,6 +46,7 @@
 #include "hal/emulator.h"
 #include "hal/hal_config.h"
 #include "servo/runtime/latency_histogram.h"
+#include "servo/telemetry/spsc_ring.h"
 #include "tools/sim/fault_spec.h"
 #include "tools/sim/plant.h"
 #include "tools/sim/plant_profile.h"
@@ -101,6 +101,17 @@ struct BusThreadConfig {
   std::function<void()> setup;
 };
 
+/// Real time: what the stepping thread hands the bus thread each step (the boards' sensor
+/// values) and what it takes back (the boards' set-points).
+struct SensorFrame {
+  std::array<double, dynamics::kNumJoints> q{}, v{}, tau{};
+  std::array<double, 3> gyro{}, accel{};
+};
+struct SetpointFrame {
+  std::array<double, dynamics::kNumJoints> tau{};
+  std::array<bool, dynamics::kNumJoints> enabled{};
+};
+
 class SimulatedRobot {
  public:
   static constexpr std::uint64_t kMaxSyncLead = 3;
@@ -130,7 +141,7 @@ class SimulatedRobot {
 
   // --- real time ------------------------------------------------------------------------------
   /// Answers whatever arrived (Emulator::Poll(now_ns)); SYNCs are counted, nothing steps.
-  /// Thread-safe against Step() (the emulator is shared under a mutex).
+  /// Not while RunRealTime's bus thread runs (it owns the emulator then).
   void Poll(std::int64_t now_ns) noexcept;
   /// One physics step with the latest set-points (actuator model, plant, sensors, faults).
   void Step() noexcept;
@@ -168,9 +179,8 @@ class SimulatedRobot {
   const servo::LatencyHistogram& step_lateness() const noexcept { return step_lateness_; }
   const servo::LatencyHistogram& step_time() const noexcept { return step_time_; }
   /// real time, the bus thread: the time between its wake-ups (a gap over a period: it was not
-  /// scheduled), and its wait for the emulator's lock (the stepping thread held it)
+  /// scheduled)
   const servo::LatencyHistogram& bus_gap() const noexcept { return bus_gap_; }
-  const servo::LatencyHistogram& bus_lock_wait() const noexcept { return bus_lock_wait_; }
   const servo::LatencyHistogram& bus_poll_time() const noexcept { return bus_poll_time_; }  // its work
   const std::vector<FaultSpec>& faults() const noexcept { return faults_; }
   Plant& plant() noexcept { return *plant_; }
@@ -181,7 +191,9 @@ class SimulatedRobot {
 
  private:
   class SyncCounter;
-  void ApplyFaults() noexcept;  // the emulator's lock held
+  // the faults due at simulated time t_s, on whichever thread owns the emulator
+  void ApplyFaults(double t_s) noexcept;
+  void SetEmulatorSensors(const SensorFrame& f) noexcept;
   void RunBusThread(const std::atomic<bool>& stop, const BusThreadConfig& bus) noexcept;
   void UpdateSensors() noexcept;
   double Gaussian() noexcept;
@@ -195,9 +207,15 @@ class SimulatedRobot {
   std::unique_ptr<Actuation> actuation_;
   Eigen::Vector3d gyro_bias_, accel_bias_;  // the config's plus the profile's
   std::unique_ptr<hal::Emulator> emulator_;
-  // the emulator (board state, set-points, sensor values, injected faults) is shared by the
-  // stepping thread and, in real time, the bus thread; critical sections copy a few numbers
-  std::mutex emulator_mutex_;
+  // Real time with the bus thread: the emulator (board state, set-points, sensor values,
+  // injected faults) is the bus thread's alone; the stepping thread hands it each step's sensor
+  // values and takes the boards' set-points back through two wait-free rings (the newest wins),
+  // so neither thread ever waits for the other, whichever of them a stall catches
+  static constexpr std::size_t kHandoffDepth = 8;
+  bool bus_thread_owns_emulator_ = false;  // set before the bus thread starts, cleared after join
+  servo::SpscRing<SensorFrame> sensor_frames_{kHandoffDepth};      // stepping → bus thread
+  servo::SpscRing<SetpointFrame> setpoint_frames_{kHandoffDepth};  // bus thread → stepping
+  SetpointFrame setpoints_;  // the stepping thread's newest
   std::atomic<std::int64_t> step_due_ns_{0};  // real time: when the next physics step is due
   std::atomic<std::int64_t> sim_now_ns_{0};   // simulated time, for the bus thread's boards
   dynamics::VectorQ q_hold_;
@@ -209,7 +227,7 @@ class SimulatedRobot {
   std::vector<std::uint8_t> fault_state_;  // 0 pending, 1 active, 2 done
   SimulatedRobotCounters counters_;
   servo::LatencyHistogram step_lateness_, step_time_;  // real time only
-  servo::LatencyHistogram bus_gap_, bus_lock_wait_, bus_poll_time_;  // real time, the bus thread
+  servo::LatencyHistogram bus_gap_, bus_poll_time_;  // real time, the bus thread
   bool holding_;
   double max_descent_m_s_ = 0.0;
   bool fell_ = false;
