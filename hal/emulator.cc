@@ -11,6 +11,7 @@ namespace hyq::hal {
 namespace {
 
 constexpr std::size_t kTxCapacity = 128;
+constexpr std::size_t kRxCapacity = 256;
 constexpr std::size_t kDelayedCapacity = 128;
 
 std::int32_t Micro(double x) noexcept {
@@ -41,6 +42,7 @@ Emulator::Emulator(const HalConfig& config, std::span<CanChannel* const> channel
     if (b.channel == nullptr)
       throw ConfigError("emulator: no CAN channel for bus '" + config_.buses[bi].name + "'");
     b.node_to_device.fill(-1);
+    b.rx.resize(kRxCapacity);
     b.tx.resize(kTxCapacity);
     b.delayed.resize(kDelayedCapacity);
     for (const DeviceConfig& dc : config_.buses[bi].devices) {
@@ -211,7 +213,7 @@ void Emulator::Answer(BusState& b, Device& d, std::uint8_t counter) noexcept {
   }
 }
 
-void Emulator::OnSync(BusState& b, std::uint8_t counter) noexcept {
+void Emulator::OnSync(BusState& b, std::uint8_t counter, bool answer) noexcept {
   ++b.counters.syncs;
   b.last_sync_ns = now_ns_;
   // frames held back by an earlier SYNC go out first (they now answer an old counter)
@@ -237,11 +239,12 @@ void Emulator::OnSync(BusState& b, std::uint8_t counter) noexcept {
       }
     }
     d.rpdo_since_sync = false;
-    Answer(b, d, counter);
+    if (answer) Answer(b, d, counter);
   }
+  if (!answer) ++b.counters.superseded_syncs;
 }
 
-void Emulator::HandleFrame(BusState& b, const CanFrame& f) noexcept {
+void Emulator::HandleFrame(BusState& b, const CanFrame& f, bool answer_sync) noexcept {
   if (f.is_error() || f.is_extended()) return;
   const FrameAddress a = Classify(f.id);
   switch (a.kind) {
@@ -264,7 +267,7 @@ void Emulator::HandleFrame(BusState& b, const CanFrame& f) noexcept {
         ++b.counters.malformed_rx;
         return;
       }
-      OnSync(b, counter);
+      OnSync(b, counter, answer_sync);
       return;
     }
     case FrameKind::kRpdo1: {
@@ -307,14 +310,24 @@ void Emulator::HandleFrame(BusState& b, const CanFrame& f) noexcept {
 void Emulator::Poll(std::int64_t now_ns) noexcept {
   now_ns_ = now_ns;
   for (BusState& b : buses_) {
-    std::array<CanFrame, 64> rx;
     for (;;) {
+      // what has arrived (up to b.rx's capacity), then handled in order
       std::size_t n = 0;
-      (void)b.channel->Receive(rx, &n);
+      (void)b.channel->Receive(b.rx, &n);
       b.counters.rx_frames += n;
+      // the newest SYNC among them (newest_sync_only_: the only one answered)
+      std::size_t newest_sync = n;
+      if (newest_sync_only_)
+        for (std::size_t i = n; i-- > 0;)
+          if (!b.rx[i].is_error() && !b.rx[i].is_extended() &&
+              Classify(b.rx[i].id).kind == FrameKind::kSync) {
+            newest_sync = i;
+            break;
+          }
       if (!b.off)
-        for (std::size_t i = 0; i < n; ++i) HandleFrame(b, rx[i]);
-      if (n < rx.size()) break;
+        for (std::size_t i = 0; i < n; ++i)
+          HandleFrame(b, b.rx[i], !newest_sync_only_ || i == newest_sync);
+      if (n < b.rx.size()) break;
     }
     if (b.off) {
       b.tx_size = 0;

@@ -63,6 +63,8 @@ struct EmulatorCounters {
   std::uint64_t setpoint_timeouts = 0;  // boards that tripped on their own timer
   std::uint64_t master_heartbeats = 0;  // the master's heartbeats received
   std::uint64_t heartbeat_trips = 0;    // boards that tripped because the master's heartbeat stopped
+  std::uint64_t superseded_syncs = 0;   // SYNCs left unanswered: a newer one was already waiting
+                                        // (only with SetAnswerNewestSyncOnly)
 };
 
 class Emulator {
@@ -76,6 +78,13 @@ class Emulator {
 
   /// Drains every channel and answers (NMT, SYNC, RPDO), sends due heartbeats and queued EMCYs.
   void Poll(std::int64_t now_ns) noexcept;
+
+  /// When on, a Poll that finds several SYNCs waiting on a bus answers only the newest: the
+  /// older ones still count (the RPDO watchdog, delayed frames) but get no TPDOs, which the
+  /// master would discard as stale anyway. Real boards answer within microseconds and are never
+  /// behind; an emulator on a shared host is, after a stall, and answering every missed SYNC
+  /// then only puts it further behind. Off by default (every SYNC answered, as on the wire).
+  void SetAnswerNewestSyncOnly(bool on) noexcept { newest_sync_only_ = on; }
 
   // --- the plant's side -------------------------------------------------------------------
   /// What joint `joint` reports: angle, velocity and joint torque (the board's sensor reports the
@@ -147,6 +156,7 @@ class Emulator {
     CanChannel* channel = nullptr;
     std::vector<int> devices;         // indices into devices_
     std::array<std::int8_t, kMaxNodeId + 1> node_to_device{};
+    std::vector<CanFrame> rx;         // fixed capacity: one Poll's frames
     std::vector<CanFrame> tx;         // fixed capacity
     std::size_t tx_size = 0;
     std::vector<Delayed> delayed;     // fixed capacity
@@ -161,8 +171,8 @@ class Emulator {
   // joint's board, nullptr when `joint` is out of range or has none
   Device* JointDevice(int joint) noexcept;
   const Device* JointDevice(int joint) const noexcept;
-  void HandleFrame(BusState& b, const CanFrame& f) noexcept;
-  void OnSync(BusState& b, std::uint8_t counter) noexcept;
+  void HandleFrame(BusState& b, const CanFrame& f, bool answer_sync) noexcept;
+  void OnSync(BusState& b, std::uint8_t counter, bool answer) noexcept;
   void Answer(BusState& b, Device& d, std::uint8_t counter) noexcept;
   void Nmt(Device& d, NmtCommand cmd) noexcept;
   void CheckSetpointTimer(BusState& b, Device& d, std::int64_t now_ns) noexcept;
@@ -182,6 +192,7 @@ class Emulator {
   Device dummy_;  // fault target for an absent IMU / out-of-range joint
   std::uint64_t rng_;
   std::int64_t now_ns_ = 0;
+  bool newest_sync_only_ = false;
 };
 
 }  // namespace hyq::hal

@@ -134,6 +134,52 @@ TEST_F(EmulatorAlone, RpdoWatchdogMalformedRpdoStopAndBusOff) {
   }
 }
 
+// Behind after a stall of its host, an emulator told to answer only the newest SYNC sends one
+// TPDO per board, echoing the newest counter; the older SYNCs still count for the RPDO watchdog.
+// Without the setting (the default) every SYNC is answered, as on the wire.
+TEST_F(EmulatorAlone, BehindItAnswersOnlyTheNewestSyncWhenToldTo) {
+  (void)Poll();
+  Send(EncodeNmt(NmtCommand::kStart, 0));
+  Send(EncodeActuatorRpdo(1, {1000, control_bit::kEnable, 1, 0}));
+  Send(EncodeSync(1));
+  (void)Poll();
+  ASSERT_TRUE(emu_->outputs_enabled(3));
+  const auto answers = [&](const std::vector<CanFrame>& rx, std::uint32_t id) {
+    std::vector<int> counters;
+    for (const CanFrame& f : rx)
+      if (f.id == id) counters.push_back(TpdoSyncCounter(f));
+    return counters;
+  };
+  // three SYNCs waiting, by default: three answers per board, oldest first
+  for (std::uint8_t c = 2; c <= 4; ++c) Send(EncodeSync(c));
+  std::vector<CanFrame> rx = Poll();
+  EXPECT_EQ(answers(rx, 0x182), (std::vector<int>{2, 3, 4}));
+  EXPECT_EQ(emu_->counters(1).superseded_syncs, 0u);
+  // told to answer the newest only: one answer per board, the newest counter
+  emu_->SetAnswerNewestSyncOnly(true);
+  Send(EncodeNmt(NmtCommand::kStart, 0));
+  Send(EncodeActuatorRpdo(1, {1000, control_bit::kEnable, 5, 0}));
+  Send(EncodeSync(5));
+  (void)Poll();
+  ASSERT_TRUE(emu_->outputs_enabled(3));
+  for (std::uint8_t c = 6; c <= 8; ++c) Send(EncodeSync(c));
+  rx = Poll();
+  for (std::uint32_t node = 1; node <= 3; ++node)
+    EXPECT_EQ(answers(rx, 0x180 + node), (std::vector<int>{8})) << node;
+  EXPECT_EQ(emu_->counters(1).superseded_syncs, 2u);
+  EXPECT_EQ(emu_->counters(1).syncs, 8u);
+  // the unanswered SYNCs still counted: three without a set-point tripped the RPDO watchdog
+  EXPECT_FALSE(emu_->outputs_enabled(3));
+  ActuatorTpdo p;
+  ASSERT_NE(Find(rx, 0x181), nullptr);
+  ASSERT_EQ(DecodeActuatorTpdo(*Find(rx, 0x181), 1, &p), PdoStatus::kOk);
+  EXPECT_NE(p.status & status_bit::kRpdoWatchdog, 0);
+  // one SYNC at a time: each answered
+  Send(EncodeSync(9));
+  EXPECT_EQ(answers(Poll(), 0x182), (std::vector<int>{9}));
+  EXPECT_EQ(emu_->counters(1).superseded_syncs, 2u);
+}
+
 // A master that dies sends nothing more, not even SYNCs, so a SYNC-counting watchdog never
 // fires: the boards' own timer does, within device_setpoint_timeout_s (+ one poll period).
 TEST_F(EmulatorAlone, DeadMasterTripsTheBoardsOnTheirOwnTimer) {

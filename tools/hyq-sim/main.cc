@@ -606,7 +606,8 @@ int Run(const Options& o) {
       << "  \"realtime_overruns\": " << c.realtime_overruns << ",\n"
       << "  \"late_steps\": " << c.late_steps << ",\n"
       << "  \"dropped_steps\": " << c.dropped_steps << ",\n"
-      << "  \"stale_answers\": " << c.stale_answers << ",\n";
+      << "  \"stale_answers\": " << c.stale_answers << ",\n"
+      << "  \"superseded_syncs\": " << c.superseded_syncs << ",\n";
     auto hist = [&](const char* key, const servo::LatencyHistogram& h) {
       s << "  \"" << key << "\": {\"count\": " << h.count() << ", \"p50_us\": "
         << 1e-3 * static_cast<double>(h.Percentile(0.5)) << ", \"p99_us\": "

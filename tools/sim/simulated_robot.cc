@@ -286,7 +286,12 @@ void SimulatedRobot::SetEmulatorSensors(const SensorFrame& f) noexcept {
 
 void SimulatedRobot::Poll(std::int64_t now_ns) noexcept {
   emulator_->Poll(now_ns);
-  for (std::size_t b = 0; b < channels_.size(); ++b) counters_.syncs[b] = channels_[b]->syncs();
+  std::uint64_t superseded = 0;
+  for (std::size_t b = 0; b < channels_.size(); ++b) {
+    counters_.syncs[b] = channels_[b]->syncs();
+    superseded += emulator_->counters(static_cast<int>(b)).superseded_syncs;
+  }
+  counters_.superseded_syncs = superseded;
 }
 
 int SimulatedRobot::PollLockStep() noexcept {
@@ -398,6 +403,9 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
     for (const auto& c : channels_)
       if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
   step_due_ns_.store(t0, std::memory_order_relaxed);
+  // behind after a stall (of this host, not of the boards), the boards answer only the newest
+  // SYNC: the master discards answers to older ones, and each costs a datagram per board
+  emulator_->SetAnswerNewestSyncOnly(true);
   std::atomic<bool> bus_stop{false};
   std::thread bus_thread;
   if (bus.enabled) {
