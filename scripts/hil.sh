@@ -6,8 +6,11 @@
 #   scripts/hil.sh [--out DIR] [--duration S] [--reference trot|figure_eight|stand]
 #                  [--controller two_stage|stage1|noslip|pid|pd_gravity] [--mu MU] [--clock lockstep|realtime]
 #                  [--fault T:KIND:TARGET[:ARG]]... [--sim-arg ARG]... [--servod-arg ARG]...
-#                  [--build DIR] [--no-logger] [--candump] [--sigterm-after S] [--quiet]
+#                  [--build DIR] [--no-logger] [--candump] [--bus-trace] [--sigterm-after S] [--quiet]
 #
+# --bus-trace: hyq-candump records each bus (OUT/bus_<name>.log, candump format, kernel receive
+#   timestamps), then scripts/bus_trace_report.py times the boards' answers (OUT/bus_trace.txt):
+#   what to look at when a real-time run stops on input_missing.
 # --servod-bin PATH: another hyq-servod (e.g. a thread-sanitizer build) against this build's hyq-sim.
 # --sigterm-after S: SIGTERM to the daemon after S wall seconds (with --duration 0: run until then).
 # Defaults: 5 s of trot on mu = 0.1 with the two-stage ID, lock-step, OUT = hil-run/.
@@ -16,9 +19,9 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 
 out=hil-run duration=5 reference=trot controller=two_stage mu=0.1 clock=lockstep
-build="$here/build/ci" logger=1 candump=0 quiet=0 sigterm_after= servod_bin=
+build="$here/build/ci" logger=1 candump=0 bus_trace=0 quiet=0 sigterm_after= servod_bin=
 faults=() sim_args=() servod_args=()
-usage() { sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
+usage() { sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
 while (($#)); do
   case "$1" in
     --out) out="$2"; shift ;;
@@ -37,6 +40,7 @@ while (($#)); do
     --sigterm-after) sigterm_after="$2"; shift ;;
     --servod-bin) servod_bin="$2"; shift ;;
     --candump) candump=1 ;;
+    --bus-trace) bus_trace=1 ;;
     --quiet) quiet=1 ;;
     -h|--help) usage 0 ;;
     *) echo "hil.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
@@ -53,7 +57,7 @@ if [[ -z "${HYQ_HIL_NETNS:-}" ]]; then
     --reference "$reference" --controller "$controller" --mu "$mu" --clock "$clock" \
     --build "$build" "${faults[@]}" $( ((logger)) || echo --no-logger) \
     ${sigterm_after:+--sigterm-after "$sigterm_after"} ${servod_bin:+--servod-bin "$servod_bin"} \
-    $( ((candump)) && echo --candump) $( ((quiet)) && echo --quiet) \
+    $( ((candump)) && echo --candump) $( ((bus_trace)) && echo --bus-trace) $( ((quiet)) && echo --quiet) \
     "${sim_args[@]/#/--sim-arg=}" "${servod_args[@]/#/--servod-arg=}"
 fi
 ip link set lo up
@@ -68,7 +72,7 @@ for b in "$sim" "$servod"; do
   [[ -x "$b" ]] || { echo "hil.sh: $b not built (scripts/run.sh builds it, or cmake --build --preset ci)" >&2; exit 1; }
 done
 mkdir -p "$out"
-rm -f "$out"/*.json "$out"/*.csv "$out"/telemetry.lcmlog "$out"/*.log
+rm -f "$out"/*.json "$out"/*.csv "$out"/telemetry.lcmlog "$out"/*.log "$out"/bus_trace.txt
 url='udpm://239.255.76.67:7667?ttl=0'
 pids=()
 cleanup() { for p in "${pids[@]}"; do kill -TERM "$p" 2>/dev/null || true; done; wait 2>/dev/null || true; }
@@ -84,6 +88,19 @@ fi
 if ((candump)); then
   /usr/bin/python3 "$here/tests/hil/python_can_logger.py" "$out/candump" >"$out/python-can.log" 2>&1 &
   pids+=($!)
+fi
+trace_pids=()
+if ((bus_trace)); then
+  # hyq-sim's default buses (docs/simulation.md); an 8 MiB socket buffer (capped by rmem_max)
+  # so that a recorder the scheduler left waiting loses nothing: the times are the kernel's
+  port=43101
+  for b in lf rf lh rh; do
+    "$build/tools/hyq-candump/hyq-candump" -L "$b" -o "$out/bus_$b.log" "udp::$port,rcvbuf=8388608" \
+      2>"$out/bus_$b.err" &
+    trace_pids+=($!)
+    port=$((port + 1))
+  done
+  pids+=("${trace_pids[@]}")
 fi
 "$sim" --mode "$clock" --mu "$mu" --summary "$out/sim.json" --truth "$out/truth.csv" --quiet \
   "${faults[@]}" "${sim_args[@]}" 2>"$out/sim.log" &
@@ -107,6 +124,10 @@ wait "$sim_pid" 2>/dev/null || true
 sleep 0.2
 cleanup
 trap - EXIT
+if ((bus_trace)); then
+  /usr/bin/python3 "$here/scripts/bus_trace_report.py" "$out" >"$out/bus_trace.txt" 2>&1 ||
+    echo "hil.sh: bus_trace_report.py failed: see $out/bus_trace.txt" >&2
+fi
 
 /usr/bin/python3 - "$out" "$servod_rc" <<'PY'
 import json, sys, os
@@ -147,7 +168,11 @@ if sim:
                  f"{sim.get('contact_speed_m_s', 0):.2f} m/s)")
     print(f"  robot            {'FELL or sat down at %.2f s' % contact_at if fell else 'did not fall while active'}{after}; "
           f"{sim.get('simulated_time_s', 0):.2f} s simulated at {sim.get('speed', 0):.1f}x real time")
-print(f"  files            {out}: servod.json sim.json truth.csv" + (" telemetry.lcmlog" if os.path.exists(os.path.join(out, 'telemetry.lcmlog')) else ""))
+bt = os.path.join(out, "bus_trace.txt")
+if os.path.exists(bt):
+    first = open(bt).readline().strip()
+    print(f"  bus trace        {first[len('bus trace: '):] if first.startswith('bus trace: ') else first} (bus_trace.txt)")
+print(f"  files            {out}: servod.json sim.json truth.csv" + (" telemetry.lcmlog" if os.path.exists(os.path.join(out, 'telemetry.lcmlog')) else "") + (" bus_*.log" if os.path.exists(bt) else ""))
 json.dump({"fell_while_active": fell, "t_stop_s": t_stop}, open(os.path.join(out, "hil.json"), "w"))
 sys.exit(4 if fell else 0)
 PY
