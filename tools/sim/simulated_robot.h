@@ -220,7 +220,7 @@ class SimulatedRobot {
   servo::SpscRing<SetpointFrame> setpoint_frames_{kHandoffDepth};  // bus thread → stepping
   SetpointFrame setpoints_;  // the stepping thread's newest
   std::atomic<std::int64_t> step_due_ns_{0};  // real time: when the next physics step is due
-  std::atomic<std::int64_t> sim_now_ns_{0};   // simulated time, for the bus thread's boards
+  std::atomic<std::int64_t> sim_now_ns_{0};   // simulated time, for the bus thread's faults
   dynamics::VectorQ q_hold_;
   dynamics::VectorJ tau_applied_ = dynamics::VectorJ::Zero();
   dynamics::VectorJ tau_measured_ = dynamics::VectorJ::Zero();
