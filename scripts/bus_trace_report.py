@@ -86,8 +86,9 @@ def analyse(events):
     # a SYNC counts once the boards answer at all (the ones before NMT start get no answer)
     first = next((i for i, a in enumerate(answered) if a), len(syncs))
     unanswered = [i for i in range(first, len(syncs) - 1) if answered[i] != set(nodes)]
+    missing_by_node = {n: sum(1 for i in unanswered if n not in answered[i]) for n in nodes}
     return dict(syncs=syncs, nodes=nodes, gaps=gaps, latency=latency, late=late,
-                answered=answered, unanswered=unanswered)
+                answered=answered, unanswered=unanswered, missing_by_node=missing_by_node)
 
 
 def episodes(unanswered):
@@ -146,6 +147,7 @@ def main():
             lat = r["latency"]
             doc[name] = dict(syncs=len(r["syncs"]), answers=len(lat), late_answers=r["late"],
                              cycles_missing=len(r["unanswered"]),
+                             missing_by_node={str(n): c for n, c in r["missing_by_node"].items()},
                              longest_run=max((ln for _, ln in episodes(r["unanswered"])), default=0),
                              latency_p50_us=pct(lat, .5), latency_p99_us=pct(lat, .99),
                              latency_max_us=max(lat, default=None))

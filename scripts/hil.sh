@@ -101,6 +101,15 @@ if ((bus_trace)); then
     port=$((port + 1))
   done
   pids+=("${trace_pids[@]}")
+  # each recorder says "recording" once its socket has joined the bus: wait for all four (a
+  # loaded machine can take longer to start one than hyq-sim and the daemon take to begin)
+  for ((i = 0; i < 100; i++)); do
+    n=0
+    for b in lf rf lh rh; do grep -q "recording" "$out/bus_$b.err" 2>/dev/null && n=$((n + 1)); done
+    ((n == 4)) && break
+    sleep 0.05
+  done
+  ((n == 4)) || echo "hil.sh: --bus-trace: a recorder has not started after 5 s (see $out/bus_*.err)" >&2
 fi
 "$sim" --mode "$clock" --mu "$mu" --summary "$out/sim.json" --truth "$out/truth.csv" --quiet \
   "${faults[@]}" "${sim_args[@]}" 2>"$out/sim.log" &

@@ -7,9 +7,12 @@
 #    the next SYNC), one cycle with an answer missing, latencies to the microsecond.
 # 2. A 2 s lock-step HIL run recorded by hyq-candump on every bus, in which rf_hfe's board drops
 #    two answers at 1 s: the SYNCs the recording holds are the SYNCs hyq-sim counted on each bus
-#    (sim.json syncs_per_bus); the cycles it finds with an answer missing are the inputs the
-#    daemon held (servod.json held_inputs: rf_hfe 2, two in a row), and its late answers the ones
-#    the daemon discarded.
+#    (sim.json syncs_per_bus); every board's answers the recording finds missing (still missing
+#    when the next SYNC went out) the daemon held (servod.json held_inputs per device), rf_hfe's
+#    two dropped ones among them, and the late answers it finds the daemon discarded. The
+#    daemon reads a little before it sends the next SYNC, so an answer that came in between is
+#    held and then discarded late by the daemon but on time in the recording: on a quiet machine
+#    the counts are equal, on a loaded one the recording's are at most the daemon's.
 set -uo pipefail
 build="${1:?}" src="${2:?}" art="${3:?}"
 py=/usr/bin/python3
@@ -70,13 +73,22 @@ for b, n in sim["syncs_per_bus"].items():
     print(f"bus {b}: {r[b]['syncs']} SYNCs recorded, hyq-sim counted {n}; answers {r[b]['answers']}")
     ok &= r[b]["syncs"] == n and r[b]["answers"] > 0
 h = s["held_inputs"]
-missing = {b: x["cycles_missing"] for b, x in r.items() if x["cycles_missing"]}
-print(f"cycles with an answer missing in the recording: {missing}, longest run on rf {r['rf']['longest_run']}; "
-      f"held by the daemon: {h['per_device']}, longest run {h['max_in_row']}")
-ok &= missing == {"rf": 2} and r["rf"]["longest_run"] == 2 and h["per_device"] == {"rf_hfe": 2} and h["max_in_row"] == 2
+names = {"1": "haa", "2": "hfe", "3": "kfe"}
+rec = {}
+for b, x in r.items():
+    for node, n in x["missing_by_node"].items():
+        if n:
+            rec["imu" if node == "16" else f"{b}_{names[node]}"] = n
+held = h["per_device"]
+print(f"answers missing in the recording, per board: {rec}; held by the daemon: {held} (longest run {h['max_in_row']})")
+for dev, n in rec.items():
+    if n > held.get(dev, 0):
+        print(f"  {dev}: {n} missing in the recording but {held.get(dev, 0)} held by the daemon"); ok = False
+if rec.get("rf_hfe", 0) < 2 or held.get("rf_hfe", 0) < 2:
+    print("  rf_hfe's two dropped answers are not in both"); ok = False
 late = sum(x["late_answers"] for x in r.values())
-print(f"late answers: {late} in the recording, {s['held_inputs']['late_answers']} counted by the daemon")
-ok &= late == s["held_inputs"]["late_answers"]
+print(f"late answers: {late} in the recording, {h['late_answers']} discarded by the daemon")
+ok &= late <= h["late_answers"]
 sys.exit(0 if ok else 1)
 PY
 echo "bus_trace_test: PASS"
