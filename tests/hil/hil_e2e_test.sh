@@ -255,8 +255,14 @@ PY
       # daemon allows (timing.max_held_cycles periods: seen on the CI machine, one 4.6 ms stall
       # of the plant), a fault stop is the right answer to a robot that stopped answering. Then
       # the run is reported and skipped with its numbers, provided the daemon did stop safely.
+      # A control fault (a joint out of range, a bad estimate, the controller's output) is put
+      # down to the machine only when the machine stalled within the 0.1 s before it (skipped
+      # periods or a late wake-up in the telemetry, HYQ_TIMING): a run-wide maximum is no alibi
+      # (a touchdown that rang past 15 rad/s at 3.2 s was once excused by a 1.5 ms cycle).
+      [[ -s "$out/telemetry.lcmlog" ]] && "$build/tools/hyq-lcm-export/hyq-lcm-export" --quiet --allow-undecodable \
+        "$out/telemetry.lcmlog" "$out/csv" >/dev/null 2>&1
       "$py" - "$out" "$rc" <<'PY' && { echo "SKIP: the machine did not keep real time during the run (see the line above); the daemon stopped safely (exit $rc), its tracking and events are not judged"; exit 77; }
-import json, os, sys
+import csv, json, os, sys
 out = sys.argv[1]
 s = json.load(open(os.path.join(out, "servod.json"))); sim = json.load(open(os.path.join(out, "sim.json")))
 plant, wake = sim["step_lateness"], s["wakeup_latency"]
@@ -271,6 +277,23 @@ stalled = (plant["p99_us"] > 1000 or wake["p99_us"] > 1000 or plant["max_us"] > 
 if faulted and stalled and s["final_mode"] != "stopped":
     print(f"hil_e2e_test: FAIL: the machine stalled, but the daemon ended in {s['final_mode']!r}, not stopped")
     sys.exit(1)
+control = [e for e in s["event_log"] if e["reason"] in ("out_of_range", "input_jump", "controller_failure", "estimator_failure")]
+if faulted and stalled and control:
+    c = control[0]["cycle"]
+    timing = os.path.join(out, "csv", "HYQ_TIMING.csv")
+    rows = []
+    if os.path.exists(timing):
+        for r in csv.DictReader(open(timing)):
+            rows.append((int(r["cycle (count)"]), int(r["skipped_cycles (count)"]), int(r["wakeup_latency_ns (ns)"])))
+    before = [r for r in rows if r[0] <= c - 100]
+    window = [r for r in rows if c - 100 < r[0] <= c]
+    skipped = (window[-1][1] - (before[-1][1] if before else 0)) if window else None
+    late = max((r[2] for r in window), default=0) / 1e3
+    print(f"hil_e2e_test: {control[0]['reason']} at cycle {c} ({control[0]['detail']}); in the 0.1 s before it: "
+          f"{skipped if skipped is not None else 'unknown'} periods skipped, sampled wake-ups up to {late:.0f} us late")
+    if skipped is not None and skipped == 0 and late < 1000:
+        print("hil_e2e_test: FAIL: a control fault with no stall of the machine before it: the control's, not the machine's")
+        sys.exit(1)
 sys.exit(0 if faulted and stalled else 1)
 PY
     fi
