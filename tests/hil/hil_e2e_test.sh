@@ -257,7 +257,8 @@ PY
       # the run is reported and skipped with its numbers, provided the daemon did stop safely.
       # A control fault (a joint out of range, a bad estimate, the controller's output) is put
       # down to the machine only when the machine stalled within the 0.1 s before it (skipped
-      # periods or a late wake-up in the telemetry, HYQ_TIMING): a run-wide maximum is no alibi
+      # periods or a late wake-up in the telemetry, HYQ_TIMING; or the plant's joint state
+      # standing still across telemetry samples, HYQ_JOINT_STATE): a run-wide maximum is no alibi
       # (a touchdown that rang past 15 rad/s at 3.2 s was once excused by a 1.5 ms cycle).
       [[ -s "$out/telemetry.lcmlog" ]] && "$build/tools/hyq-lcm-export/hyq-lcm-export" --quiet --allow-undecodable \
         "$out/telemetry.lcmlog" "$out/csv" >/dev/null 2>&1
@@ -289,9 +290,22 @@ if faulted and stalled and control:
     window = [r for r in rows if c - 100 < r[0] <= c]
     skipped = (window[-1][1] - (before[-1][1] if before else 0)) if window else None
     late = max((r[2] for r in window), default=0) / 1e3
+    # the plant's core stalled: the boards answered from the last physics step, so the joint
+    # state stood still across two telemetry samples (4 cycles apart) while the robot moved
+    frozen = 0
+    state = os.path.join(out, "csv", "HYQ_JOINT_STATE.csv")
+    if os.path.exists(state):
+        prev = None
+        for r in csv.DictReader(open(state)):
+            k = int(r["cycle (count)"])
+            q = tuple(v for name, v in r.items() if name.startswith("q_rad."))
+            if c - 100 < k <= c and prev is not None and q == prev:
+                frozen += 1
+            prev = q
     print(f"hil_e2e_test: {control[0]['reason']} at cycle {c} ({control[0]['detail']}); in the 0.1 s before it: "
-          f"{skipped if skipped is not None else 'unknown'} periods skipped, sampled wake-ups up to {late:.0f} us late")
-    if skipped is not None and skipped == 0 and late < 1000:
+          f"{skipped if skipped is not None else 'unknown'} periods skipped, sampled wake-ups up to {late:.0f} us late, "
+          f"{frozen} telemetry samples with the joint state of the sample before (the plant stood still)")
+    if skipped is not None and skipped == 0 and late < 1000 and frozen == 0:
         print("hil_e2e_test: FAIL: a control fault with no stall of the machine before it: the control's, not the machine's")
         sys.exit(1)
 sys.exit(0 if faulted and stalled else 1)
