@@ -48,16 +48,13 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
                              const ContactEnvironment& env, double dt, IdOutput* out) noexcept {
   const auto qj = q.tail<dynamics::kNumJoints>();
   const auto vj = v.tail<dynamics::kNumJoints>();
-  // the feedback gains' scale per joint: swing legs' joints get this controller's swing scale,
-  // and so does a leg of the reference's stance whose foot carries no load yet (a late
-  // touchdown): until the ground takes it, it is as light as a swing leg, and the full gains rang
-  // it at ~60 Hz with the real-time loop's extra millisecond of delay (issue 17)
+  // the feedback gains' scale per joint: swing legs' joints get this controller's swing scale
   const double swing = config_.kind == ControllerKind::kPid         ? config_.pid_swing_gain_scale
                        : config_.kind == ControllerKind::kPdGravity ? config_.pdg_swing_gain_scale
                                                                     : config_.swing_gain_scale;
   dynamics::VectorJ scale = dynamics::VectorJ::Ones();
   for (int f = 0; f < dynamics::kNumFeet; ++f)
-    if (!ref.stance[static_cast<std::size_t>(f)] || !env.loaded[static_cast<std::size_t>(f)])
+    if (!ref.stance[static_cast<std::size_t>(f)])
       scale.segment<dynamics::kJointsPerLeg>(dynamics::kJointsPerLeg * f).setConstant(swing);
   if (config_.kind == ControllerKind::kPid) {
     *out = IdOutput{};

@@ -60,10 +60,6 @@ struct ContactEnvironment {
   std::array<double, kNumFeet> mu{1.0, 1.0, 1.0, 1.0};
   std::array<Eigen::Vector3d, kNumFeet> normal_W{Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ(),
                                                  Eigen::Vector3d::UnitZ(), Eigen::Vector3d::UnitZ()};
-  /// Whether each foot carries load (the estimator's stance). A foot of the reference's stance
-  /// that does not yet (a late touchdown) gets the swing legs' feedback scale: its leg is as
-  /// light as a swing leg until the ground takes it. Defaults: every foot loaded.
-  std::array<bool, kNumFeet> loaded{true, true, true, true};
 };
 
 class Controller {

@@ -269,7 +269,6 @@ void ServoLoop::RunController() noexcept {
   for (std::size_t f = 0; f < kNumFeet; ++f)
     id_env_.mu[f] = config_.friction.enabled ? std::min(friction_.feet()[f].mu_control, env_.mu[f])
                                              : env_.mu[f];
-  id_env_.loaded = estimator_.stance();
   if (safety_.mode() != ServoMode::kActive) return;
   if (const Fault f = CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) {
     safety_.Report(f);
