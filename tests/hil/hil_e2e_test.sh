@@ -260,8 +260,7 @@ PY
       # periods or a late wake-up in the telemetry, HYQ_TIMING; or the plant's joint state
       # standing still across telemetry samples, HYQ_JOINT_STATE): a run-wide maximum is no alibi
       # (a touchdown that rang past 15 rad/s at 3.2 s was once excused by a 1.5 ms cycle).
-      [[ -s "$out/telemetry.lcmlog" ]] && "$build/tools/hyq-lcm-export/hyq-lcm-export" --quiet --allow-undecodable \
-        "$out/telemetry.lcmlog" "$out/csv" >/dev/null 2>&1
+      [[ -s "$out/telemetry.lcmlog" ]] && decode_log
       "$py" - "$out" "$rc" <<'PY' && { echo "SKIP: the machine did not keep real time during the run (see the line above); the daemon stopped safely (exit $rc), its tracking and events are not judged"; exit 77; }
 import csv, json, os, sys
 out = sys.argv[1]

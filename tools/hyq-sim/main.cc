@@ -573,6 +573,10 @@ int Run(const Options& o) {
   truth_lcm.reset();
 
   const auto& c = robot.counters();
+  // the boards' SYNCs left unanswered because a newer one waited (real time, behind)
+  std::uint64_t superseded_syncs = 0;
+  for (std::size_t b = 0; b < cfg.buses.size(); ++b)
+    superseded_syncs += robot.emulator().counters(static_cast<int>(b)).superseded_syncs;
   const double stepping_wall = last_step_wall - first_step_wall;
   const double speed = stepping_wall > 0 ? robot.time_s() / stepping_wall : 0.0;
   if (!o.summary.empty()) {
@@ -607,7 +611,7 @@ int Run(const Options& o) {
       << "  \"late_steps\": " << c.late_steps << ",\n"
       << "  \"dropped_steps\": " << c.dropped_steps << ",\n"
       << "  \"stale_answers\": " << c.stale_answers << ",\n"
-      << "  \"superseded_syncs\": " << c.superseded_syncs << ",\n";
+      << "  \"superseded_syncs\": " << superseded_syncs << ",\n";
     auto hist = [&](const char* key, const servo::LatencyHistogram& h) {
       s << "  \"" << key << "\": {\"count\": " << h.count() << ", \"p50_us\": "
         << 1e-3 * static_cast<double>(h.Percentile(0.5)) << ", \"p99_us\": "

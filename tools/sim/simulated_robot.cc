@@ -286,12 +286,7 @@ void SimulatedRobot::SetEmulatorSensors(const SensorFrame& f) noexcept {
 
 void SimulatedRobot::Poll(std::int64_t now_ns) noexcept {
   emulator_->Poll(now_ns);
-  std::uint64_t superseded = 0;
-  for (std::size_t b = 0; b < channels_.size(); ++b) {
-    counters_.syncs[b] = channels_[b]->syncs();
-    superseded += emulator_->counters(static_cast<int>(b)).superseded_syncs;
-  }
-  counters_.superseded_syncs = superseded;
+  for (std::size_t b = 0; b < channels_.size(); ++b) counters_.syncs[b] = channels_[b]->syncs();
 }
 
 int SimulatedRobot::PollLockStep() noexcept {

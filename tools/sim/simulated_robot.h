@@ -90,9 +90,6 @@ struct SimulatedRobotCounters {
   std::uint64_t dropped_steps = 0;      // real time: periods given up (more than kMaxCatchUp late)
   std::uint64_t stale_answers = 0;      // real time: SYNCs answered while the physics step that was
                                         // due was more than a period late (the latest state held)
-  std::uint64_t superseded_syncs = 0;   // real time: SYNCs the boards left unanswered because a
-                                        // newer one was already waiting (Emulator::
-                                        // SetAnswerNewestSyncOnly: the answer would be stale)
 };
 
 /// Real time: the boards answer SYNCs from a thread of their own (the bus thread), as the real
