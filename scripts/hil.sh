@@ -168,6 +168,12 @@ if sim.get("mode") == "realtime":
           f"{sl.get('p99_us', 0):.0f} us, max {sl.get('max_us', 0):.0f} us; stepping thread "
           f"{'SCHED_FIFO %d' % st['priority'] if st.get('fifo') else 'SCHED_OTHER'}, "
           f"{'CPU %d' % st['cpu'] if st.get('cpu', -1) >= 0 else 'not pinned'}")
+    pe = sim.get("sync_phase_error", {})
+    if sim.get("sync_phase_us") is not None:
+        print(f"  plant steps      {sim['sync_phase_us']:.0f} us after the SYNC, phase error p50 {pe.get('p50_us', 0):.0f} us, "
+              f"p99 {pe.get('p99_us', 0):.0f} us, over {pe.get('count', 0)} of {sim.get('steps')} steps")
+    else:
+        print("  plant steps      free of the SYNC (--sync-phase off): the loop's delay is 1 or 2 ms by the start's chance")
 if sim:
     after = ""
     if not fell and sim.get("fell"):

@@ -14,6 +14,7 @@
 #include "tests/hil/hil_rig.h"
 #include "tests/support/no_heap_guard.h"
 #include "tools/sim/fault_spec.h"
+#include "tools/sim/sync_phase_lock.h"
 
 namespace hyq::testing {
 namespace {
@@ -319,6 +320,53 @@ TEST(SimulatedRobot, RealTimeModeStepsAtTheCyclePeriodOnTheMonotonicClock) {
   EXPECT_GE(wall, 0.2 - 1e-3) << "physics ran ahead of the wall clock";
   EXPECT_LT(wall, 0.2 + 0.01 * static_cast<double>(rig.robot->counters().realtime_overruns) + 0.5);
   EXPECT_TRUE(rig.robot->holding()) << "no master: still on its stand";
+}
+
+// Issue 17: real time, the physics steps lock to the master's SYNC (tools/sim/sync_phase_lock.h)
+TEST(SyncPhaseLock, ErrorIsTheDeadlinesOffsetFromSyncPlusPhaseWrappedIntoHalfAPeriod) {
+  const sim::SyncPhaseLock lock{.period_ns = 1'000'000, .phase_ns = 500'000};
+  const std::int64_t sync = 7'000'123'456;
+  for (std::int64_t k : {-3, 0, 1, 40})
+    for (std::int64_t e : {-500'000, -499'999, -120'000, 0, 1, 250'000, 499'999}) {
+      EXPECT_EQ(lock.Error(sync + 500'000 + k * 1'000'000 + e, sync), e) << k << " " << e;
+    }
+  // half a period late is half a period early
+  EXPECT_EQ(lock.Error(sync + 500'000 + 500'000, sync), -500'000);
+}
+
+TEST(SyncPhaseLock, DeadlinesFromAnyStartingPhaseSettleAtThePhaseDespiteJitter) {
+  const std::int64_t P = 1'000'000;
+  const sim::SyncPhaseLock lock{.period_ns = P, .phase_ns = 500'000};
+  for (std::int64_t start = 0; start < P; start += 50'000) {
+    std::int64_t due = 3'000'000'000 + start;  // the first deadline, at any phase
+    std::int64_t worst_late = 0;
+    for (int k = 0; k < 200; ++k) {
+      // the master's SYNC k, seen with a wake-up jitter of up to 40 µs (deterministic)
+      const std::int64_t sync = 3'000'000'000 + k * P + ((k * 7919) % 5) * 10'000;
+      if (sync > due) continue;  // this SYNC comes after the deadline: the next step sees it
+      const std::int64_t c = lock.Correction(due + P, sync, due);
+      ASSERT_LE(std::abs(c), lock.max_slew_ns);
+      due += P + c;
+      if (k >= 60) worst_late = std::max(worst_late, std::abs(lock.Error(due, sync)));
+    }
+    EXPECT_LE(worst_late, 60'000) << "start phase " << start << " ns: not locked after 60 steps";
+  }
+}
+
+TEST(SyncPhaseLock, OneLateSyncMovesTheDeadlinesLittleAndNoMasterLeavesThemFree) {
+  const std::int64_t P = 1'000'000;
+  const sim::SyncPhaseLock lock{.period_ns = P, .phase_ns = 500'000};
+  const std::int64_t due = 9'000'500'000;  // locked to SYNCs at 9'000'000'000 + k P
+  EXPECT_EQ(lock.Correction(due, 9'000'000'000 - P, due - 300'000), 0);
+  // the master's SYNC 300 µs late (a stall): a quarter of it would be 75 µs; at most max_slew_ns
+  EXPECT_EQ(lock.Correction(due, 9'000'000'000 - P + 300'000, due - 100'000), lock.max_slew_ns);
+  // 900 µs late reads as 100 µs early (wrapped), a quarter of it back
+  EXPECT_EQ(lock.Correction(due, 9'000'000'000 - P + 900'000, due - 100'000), -25'000);
+  // no SYNC yet, the last one too old (the master died), or the lock off: free
+  EXPECT_EQ(lock.Correction(due + 300'000, 0, due), 0);
+  EXPECT_EQ(lock.Correction(due + 300'000, due - lock.max_sync_age_ns - 1, due), 0);
+  const sim::SyncPhaseLock off{.period_ns = P, .phase_ns = -1};
+  EXPECT_EQ(off.Correction(due + 300'000, due - P, due), 0);
 }
 
 // Issue 19: by default the robot starts in its resting crouch (feet on the ground under their

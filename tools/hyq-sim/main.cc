@@ -87,7 +87,8 @@ struct Options {
       "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
       "               [--lcm-truth [URL]] [--lcm-truth-every N]\n"
       "               [--summary FILE] [--fall-height M] [--rt-priority P] [--cpu N|auto]\n"
-      "               [--bus-thread on|off] [--bus-priority P] [--bus-cpu N|auto] [--stall T:MS]...\n"
+      "               [--bus-thread on|off] [--bus-priority P] [--bus-cpu N|auto] [--sync-phase US|off]\n"
+      "               [--stall T:MS]...\n"
       "               [--quiet]\n"
       "The simulated HyQ: the MuJoCo plant behind HyQ's actuator boards and IMU on CAN, driven\n"
       "by the servo daemon (or any HAL master) through NMT, SYNC and RPDOs. docs/simulation.md.\n"
@@ -154,6 +155,12 @@ struct Options {
       "                         0: SCHED_OTHER)\n"
       "  --bus-cpu N|auto       pin it to CPU N (-1: do not pin; default auto: the last CPU, the\n"
       "                         servo thread's, where two or more cores are allowed)\n"
+      "  --sync-phase US|off    realtime mode: each physics step begins US µs after the master's\n"
+      "                         SYNC (a phase lock on the step deadlines), so a set-point acts\n"
+      "                         from the next step as in lockstep (default 500: half a period,\n"
+      "                         room for the daemon's cycle before and the step before the next\n"
+      "                         SYNC); off: the steps keep the phase the start gave them, and the\n"
+      "                         loop's delay is 1 or 2 ms by chance (docs/simulation.md)\n"
       "  --stall T:MS           at simulated time T, stall the stepping thread for MS ms of wall\n"
       "                         time (what a preempted core does to the plant; tests)\n"
       "  --quiet                no progress line on stderr\n",
@@ -289,6 +296,14 @@ Options Parse(int argc, char** argv) {
       else Bad(a, "on or off", v);
     } else if (a == "--bus-priority") o.bus_priority = Priority(a, value());
     else if (a == "--bus-cpu") o.bus_cpu = Cpu(a, value());
+    else if (a == "--sync-phase") {
+      const std::string v = value();
+      if (v == "off") o.robot.sync_phase_ns = -1;
+      else {
+        // below the cycle period, which the HAL configuration gives (checked there)
+        o.robot.sync_phase_ns = std::llround(1e3 * Number(a, v, 0, "microseconds >= 0, or off"));
+      }
+    }
     else if (a == "--stall") {
       const std::string v = value();
       const std::size_t colon = v.find(':');
@@ -417,6 +432,10 @@ int Run(const Options& o) {
     for (const hal::BusConfig& b : cfg.buses) found = found || b.name == bus;
     if (!found) Bad("--interface", "a bus of " + o.config, bus);
   }
+  if (o.robot.sync_phase_ns >= std::llround(1e9 * cfg.timing.cycle_period_s))
+    Bad("--sync-phase", "microseconds below the cycle period of " + o.config + " (" +
+                            std::to_string(std::llround(1e6 * cfg.timing.cycle_period_s)) + " µs)",
+        std::to_string(o.robot.sync_phase_ns / 1000));
   const dynamics::Model model = dynamics::LoadModelFromUrdf(o.urdf);
   if (!o.write_model.empty()) {
     // the plant's model as MuJoCo gets it: the nominal URDF with the profile's model error
@@ -623,6 +642,10 @@ int Run(const Options& o) {
     hist("step_time", robot.step_time());
     hist("bus_gap", robot.bus_gap());
     hist("bus_poll_time", robot.bus_poll_time());
+    s << "  \"sync_phase_us\": ";
+    if (o.robot.sync_phase_ns >= 0) s << 1e-3 * static_cast<double>(o.robot.sync_phase_ns) << ",\n";
+    else s << "null,\n";
+    hist("sync_phase_error", robot.sync_phase_error());
     s << "  \"stepping_thread\": {\"fifo\": " << (rt.fifo ? "true" : "false")
       << ", \"priority\": " << (rt.fifo ? rtc.priority : 0)
       << ", \"cpu\": " << (rt.pinned ? rtc.cpu : -1)

@@ -377,6 +377,7 @@ void SimulatedRobot::RunBusThread(const std::atomic<bool>& stop, const BusThread
     // the latest state there is, the physics stood still meanwhile
     if (syncs > seen && now - step_due_ns_.load(std::memory_order_relaxed) > period_ns_)
       counters_.stale_answers += syncs - seen;
+    if (syncs > seen) last_sync_ns_.store(now, std::memory_order_relaxed);  // the phase lock's
     seen = syncs;
   }
 }
@@ -385,14 +386,18 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
                                           const BusThreadConfig& bus) {
   const int tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
   if (tfd < 0) throw std::runtime_error("simulated robot: timerfd_create failed");
+  // one-shot absolute deadlines, each set after the last step: the phase lock moves them
+  const auto arm = [tfd](std::int64_t at_ns) {
+    itimerspec its{};
+    its.it_value = {static_cast<time_t>(at_ns / 1'000'000'000), static_cast<long>(at_ns % 1'000'000'000)};
+    return timerfd_settime(tfd, TFD_TIMER_ABSTIME, &its, nullptr) == 0;
+  };
   const std::int64_t t0 = MonotonicNs() + period_ns_;
-  itimerspec its{};
-  its.it_value = {static_cast<time_t>(t0 / 1'000'000'000), static_cast<long>(t0 % 1'000'000'000)};
-  its.it_interval = {0, static_cast<long>(period_ns_)};
-  if (timerfd_settime(tfd, TFD_TIMER_ABSTIME, &its, nullptr) != 0) {
+  if (!arm(t0)) {
     close(tfd);
     throw std::runtime_error("simulated robot: timerfd_settime failed");
   }
+  const SyncPhaseLock lock{.period_ns = period_ns_, .phase_ns = cfg_.sync_phase_ns};
   std::array<pollfd, hal::kMaxBuses + 1> fds{};
   nfds_t n = 0;
   fds[n++] = {tfd, POLLIN, 0};
@@ -400,6 +405,7 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
     for (const auto& c : channels_)
       if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
   step_due_ns_.store(t0, std::memory_order_relaxed);
+  last_sync_ns_.store(0, std::memory_order_relaxed);
   // behind after a stall (of this host, not of the boards), the boards answer only the newest
   // SYNC: the master discards answers to older ones, and each costs a datagram per board
   emulator_->SetAnswerNewestSyncOnly(true);
@@ -414,35 +420,48 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
                              : UINT64_MAX;
   const std::uint64_t start = counters_.steps;
   std::int64_t due_ns = t0;  // when the next step is due
+  std::uint64_t syncs_seen = 0;
+  // without the bus thread, this thread answers: it notes when a new SYNC came, for the lock
+  const auto poll_answering = [&](std::int64_t now) {
+    Poll(now);
+    std::uint64_t syncs = 0;
+    for (std::size_t b = 0; b < channels_.size(); ++b) syncs = std::max(syncs, counters_.syncs[b]);
+    if (syncs > syncs_seen) last_sync_ns_.store(now, std::memory_order_relaxed);
+    syncs_seen = syncs;
+  };
   while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps) {
     // channels without an fd (loopback) are polled at least every period
     if (poll(fds.data(), n, n > 1 || bus.enabled ? 50 : 1) < 0 && errno != EINTR) break;
-    if (!bus.enabled) Poll(MonotonicNs());  // answer SYNCs with the latest state
-    std::uint64_t expirations = 0;
-    if (read(tfd, &expirations, sizeof expirations) == static_cast<ssize_t>(sizeof expirations) &&
-        expirations > 0) {
-      // a late wake catches up (at most kMaxCatchUp steps at once), counted as overruns; the
-      // SYNCs that arrive meanwhile are answered between the steps, with the latest state
-      counters_.realtime_overruns += expirations - 1;
-      const std::uint64_t steps =
-          std::min<std::uint64_t>({expirations, kMaxCatchUp, end_steps - counters_.steps});
-      for (std::uint64_t i = 0; i < steps; ++i) {
-        const std::int64_t begin = MonotonicNs();
-        step_lateness_.Add(begin - due_ns);
-        if (begin - due_ns > period_ns_) ++counters_.late_steps;
-        Step();
-        const std::int64_t end = MonotonicNs();
-        step_time_.Add(end - begin);
-        if (!bus.enabled) Poll(end);
-        due_ns += period_ns_;
-        step_due_ns_.store(due_ns, std::memory_order_relaxed);
-      }
-      if (expirations > steps) {  // periods given up: the simulated time falls behind
-        counters_.dropped_steps += expirations - steps;
-        due_ns += static_cast<std::int64_t>(expirations - steps) * period_ns_;
-        step_due_ns_.store(due_ns, std::memory_order_relaxed);
-      }
+    if (!bus.enabled) poll_answering(MonotonicNs());  // answer SYNCs with the latest state
+    std::uint64_t fired = 0;
+    if (read(tfd, &fired, sizeof fired) != static_cast<ssize_t>(sizeof fired) || fired == 0) continue;
+    // the periods due by now: a late wake catches up (at most kMaxCatchUp steps at once),
+    // counted as overruns; the SYNCs that arrive meanwhile are answered between the steps, with
+    // the latest state
+    const std::int64_t woke = MonotonicNs();
+    const auto due = static_cast<std::uint64_t>(std::max<std::int64_t>(woke - due_ns, 0) / period_ns_) + 1;
+    counters_.realtime_overruns += due - 1;
+    const std::uint64_t steps = std::min<std::uint64_t>({due, kMaxCatchUp, end_steps - counters_.steps});
+    for (std::uint64_t i = 0; i < steps; ++i) {
+      const std::int64_t begin = MonotonicNs();
+      step_lateness_.Add(begin - due_ns);
+      if (begin - due_ns > period_ns_) ++counters_.late_steps;
+      const std::int64_t sync = last_sync_ns_.load(std::memory_order_relaxed);
+      if (lock.enabled() && sync > 0 && begin - sync <= lock.max_sync_age_ns)
+        sync_phase_error_.Add(std::abs(lock.Error(begin, sync)));
+      Step();
+      const std::int64_t end = MonotonicNs();
+      step_time_.Add(end - begin);
+      if (!bus.enabled) poll_answering(end);
+      due_ns += period_ns_;
     }
+    if (due > steps) {  // periods given up: the simulated time falls behind
+      counters_.dropped_steps += due - steps;
+      due_ns += static_cast<std::int64_t>(due - steps) * period_ns_;
+    }
+    due_ns += lock.Correction(due_ns, last_sync_ns_.load(std::memory_order_relaxed), MonotonicNs());
+    step_due_ns_.store(due_ns, std::memory_order_relaxed);
+    if (!arm(due_ns)) break;
   }
   bus_stop.store(true, std::memory_order_relaxed);
   if (bus_thread.joinable()) bus_thread.join();

@@ -50,6 +50,7 @@
 #include "tools/sim/fault_spec.h"
 #include "tools/sim/plant.h"
 #include "tools/sim/plant_profile.h"
+#include "tools/sim/sync_phase_lock.h"
 
 namespace hyq::sim {
 
@@ -77,6 +78,10 @@ struct SimulatedRobotConfig {
   /// is still a fall.
   double fall_height_m = 0.2;  // the trunk within 0.1 m of the ground
   double max_sit_speed_m_s = 0.5;
+  /// Real time: a physics step begins this long after the master's SYNC (SyncPhaseLock,
+  /// tools/sim/sync_phase_lock.h), so that each set-point acts from the next step, as in
+  /// lock-step; < 0: the steps run free of the SYNC, at the phase the start gave.
+  std::int64_t sync_phase_ns = 500'000;
 };
 
 struct SimulatedRobotCounters {
@@ -146,7 +151,8 @@ class SimulatedRobot {
   /// One physics step with the latest set-points (actuator model, plant, sensors, faults).
   void Step() noexcept;
   /// Runs until `stop` or `duration_s` of simulated time (0: until stop): physics on absolute
-  /// CLOCK_MONOTONIC deadlines (timerfd, TFD_TIMER_ABSTIME) every period; SYNCs answered as they
+  /// CLOCK_MONOTONIC deadlines (timerfd, TFD_TIMER_ABSTIME) every period, kept at
+  /// cfg.sync_phase_ns after the master's SYNC (SyncPhaseLock); SYNCs answered as they
   /// arrive with the latest state, by the bus thread (`bus`), so that a late or stalled physics
   /// step (a preempted core, a page fault) never leaves a SYNC unanswered: the answer then
   /// carries the last step's state, counted in stale_answers. Without the bus thread the
@@ -182,6 +188,9 @@ class SimulatedRobot {
   /// scheduled)
   const servo::LatencyHistogram& bus_gap() const noexcept { return bus_gap_; }
   const servo::LatencyHistogram& bus_poll_time() const noexcept { return bus_poll_time_; }  // its work
+  /// real time, SYNC-locked: |phase error| of each step's start, i.e. how far from
+  /// sync_phase_ns after the last SYNC it began (steps while a master sends SYNCs)
+  const servo::LatencyHistogram& sync_phase_error() const noexcept { return sync_phase_error_; }
   const std::vector<FaultSpec>& faults() const noexcept { return faults_; }
   Plant& plant() noexcept { return *plant_; }
   const Plant& plant() const noexcept { return *plant_; }
@@ -218,6 +227,7 @@ class SimulatedRobot {
   SetpointFrame setpoints_;  // the stepping thread's newest
   std::atomic<std::int64_t> step_due_ns_{0};  // real time: when the next physics step is due
   std::atomic<std::int64_t> sim_now_ns_{0};   // simulated time, for the bus thread's faults
+  std::atomic<std::int64_t> last_sync_ns_{0};  // real time: when the newest SYNC was seen
   dynamics::VectorQ q_hold_;
   dynamics::VectorJ tau_applied_ = dynamics::VectorJ::Zero();
   dynamics::VectorJ tau_measured_ = dynamics::VectorJ::Zero();
@@ -228,6 +238,7 @@ class SimulatedRobot {
   SimulatedRobotCounters counters_;
   servo::LatencyHistogram step_lateness_, step_time_;  // real time only
   servo::LatencyHistogram bus_gap_, bus_poll_time_;  // real time, the bus thread
+  servo::LatencyHistogram sync_phase_error_;         // real time, the stepping thread
   bool holding_;
   double max_descent_m_s_ = 0.0;
   bool fell_ = false;
