@@ -371,15 +371,21 @@ void SimulatedRobot::RunBusThread(const std::atomic<bool>& stop, const BusThread
     (void)setpoint_frames_.TryPush(out);  // full: the stepping thread is stalled; the next one
     last = MonotonicNs();
     bus_poll_time_.Add(last - now);
-    std::uint64_t syncs = 0;
-    for (std::size_t b = 0; b < channels_.size(); ++b) syncs = std::max(syncs, counters_.syncs[b]);
     // a SYNC answered while the step that was due is more than a period late: the answer is
     // the latest state there is, the physics stood still meanwhile
-    if (syncs > seen && now - step_due_ns_.load(std::memory_order_relaxed) > period_ns_)
-      counters_.stale_answers += syncs - seen;
-    if (syncs > seen) last_sync_ns_.store(now, std::memory_order_relaxed);  // the phase lock's
-    seen = syncs;
+    const std::uint64_t new_syncs = NoteNewSyncs(now, &seen);
+    if (new_syncs > 0 && now - step_due_ns_.load(std::memory_order_relaxed) > period_ns_)
+      counters_.stale_answers += new_syncs;
   }
+}
+
+std::uint64_t SimulatedRobot::NoteNewSyncs(std::int64_t now_ns, std::uint64_t* seen) noexcept {
+  std::uint64_t syncs = 0;
+  for (std::size_t b = 0; b < channels_.size(); ++b) syncs = std::max(syncs, counters_.syncs[b]);
+  const std::uint64_t fresh = syncs > *seen ? syncs - *seen : 0;
+  if (fresh > 0) last_sync_ns_.store(now_ns, std::memory_order_relaxed);
+  *seen = syncs;
+  return fresh;
 }
 
 std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double duration_s,
@@ -424,10 +430,7 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
   // without the bus thread, this thread answers: it notes when a new SYNC came, for the lock
   const auto poll_answering = [&](std::int64_t now) {
     Poll(now);
-    std::uint64_t syncs = 0;
-    for (std::size_t b = 0; b < channels_.size(); ++b) syncs = std::max(syncs, counters_.syncs[b]);
-    if (syncs > syncs_seen) last_sync_ns_.store(now, std::memory_order_relaxed);
-    syncs_seen = syncs;
+    (void)NoteNewSyncs(now, &syncs_seen);
   };
   while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps) {
     // channels without an fd (loopback) are polled at least every period
@@ -447,8 +450,7 @@ std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double 
       step_lateness_.Add(begin - due_ns);
       if (begin - due_ns > period_ns_) ++counters_.late_steps;
       const std::int64_t sync = last_sync_ns_.load(std::memory_order_relaxed);
-      if (lock.enabled() && sync > 0 && begin - sync <= lock.max_sync_age_ns)
-        sync_phase_error_.Add(std::abs(lock.Error(begin, sync)));
+      if (lock.Active(sync, begin)) sync_phase_error_.Add(std::abs(lock.Error(begin, sync)));
       Step();
       const std::int64_t end = MonotonicNs();
       step_time_.Add(end - begin);

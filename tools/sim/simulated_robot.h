@@ -204,6 +204,9 @@ class SimulatedRobot {
   void ApplyFaults(double t_s) noexcept;
   void SetEmulatorSensors(const SensorFrame& f) noexcept;
   void RunBusThread(const std::atomic<bool>& stop, const BusThreadConfig& bus) noexcept;
+  // real time, on the thread that answers: the SYNCs seen since *seen (the most on any bus);
+  // when there are any, `now_ns` becomes the newest SYNC's time (the phase lock's reference)
+  std::uint64_t NoteNewSyncs(std::int64_t now_ns, std::uint64_t* seen) noexcept;
   void UpdateSensors() noexcept;
   double Gaussian() noexcept;
 

@@ -28,6 +28,10 @@ struct SyncPhaseLock {
   std::int64_t max_sync_age_ns = 20'000'000;
 
   bool enabled() const noexcept { return phase_ns >= 0; }
+  /// Locking now: on, a SYNC seen (last_sync_ns > 0) and not older than max_sync_age_ns.
+  bool Active(std::int64_t last_sync_ns, std::int64_t now_ns) const noexcept {
+    return enabled() && last_sync_ns > 0 && now_ns - last_sync_ns <= max_sync_age_ns;
+  }
 
   /// The phase error of the deadline due_ns: due − (last SYNC + phase), wrapped into
   /// [−period/2, period/2). Positive: the step is due later than the lock wants.
@@ -38,10 +42,10 @@ struct SyncPhaseLock {
   }
 
   /// What to add to the deadline due_ns (at time now_ns) to bring it towards the lock; 0 when
-  /// off, before any SYNC (last_sync_ns <= 0) or when the last SYNC is too old.
+  /// not Active.
   std::int64_t Correction(std::int64_t due_ns, std::int64_t last_sync_ns,
                           std::int64_t now_ns) const noexcept {
-    if (!enabled() || last_sync_ns <= 0 || now_ns - last_sync_ns > max_sync_age_ns) return 0;
+    if (!Active(last_sync_ns, now_ns)) return 0;
     return std::clamp(-Error(due_ns, last_sync_ns) / 4, -max_slew_ns, max_slew_ns);
   }
 };
