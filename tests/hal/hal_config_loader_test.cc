@@ -144,7 +144,7 @@ TEST(HalConfigLoader, SemanticErrorsFromValidationNameTheFile) {
   EXPECT_NE(m.find("calibration of lf_hfe_joint"), std::string::npos) << m;
 }
 
-// issue 13 finding 8: these passed --check
+// configurations that must be refused at load, each naming the key and what it expected
 TEST(HalConfigLoader, DuplicateBusesAndAMissingImuAreErrors) {
   std::string m = ErrorAfterEdit("  - name: rf\n", "  - name: lf\n");
   EXPECT_NE(m.find("buses[1]: expected a unique bus name, found 'lf' a second time (buses[0])"),
