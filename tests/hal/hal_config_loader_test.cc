@@ -117,7 +117,7 @@ TEST(HalConfigLoader, BadValuesNameFileLineKeyExpectedAndFound) {
   m = ErrorAfterEdit("range_deg: [-70, 25]", "range_deg: [25, -70]");
   EXPECT_NE(m.find("range_deg': expected min < max"), std::string::npos) << m;
 
-  // renamed (#17): the old key is refused with the new one's name, not silently ignored
+  // renamed: the old key is refused with the new one's name, not silently ignored
   m = ErrorAfterEdit("  max_held_cycles: 3", "  max_missed_cycles: 3");
   EXPECT_NE(m.find("key 'timing.max_missed_cycles': expected timing.max_held_cycles"),
             std::string::npos) << m;

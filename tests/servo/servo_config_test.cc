@@ -368,7 +368,7 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
   const std::string twice = message("commands:\n  max_rate_hz: 5\n  enabled: true\n  max_rate_hz: 50\n");
   EXPECT_NE(twice.find("commands.max_rate_hz"), std::string::npos) << twice;
   EXPECT_NE(twice.find("a second time (first on line"), std::string::npos) << twice;
-  // one policy for late or missing inputs (#17): the safety layer's old key names the HAL's
+  // one policy for late or missing inputs: the safety layer's old key names the HAL's
   const std::string held = message("safety:\n  max_missing_cycles: 20\n");
   EXPECT_NE(held.find("safety.max_missing_cycles"), std::string::npos) << held;
   EXPECT_NE(held.find("timing.max_held_cycles"), std::string::npos) << held;
