@@ -4,8 +4,8 @@
 #
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR trot
 #       5 s of trot on mu = 0.1 with the two-stage ID in lock-step: the daemon stops cleanly, the
-#       robot does not fall while ACTIVE, the mean tracking error <= 0.047 rad (1.5 x the first
-#       wave's in-process 0.031 rad; with the shipped, tuned gains: 0.021 rad over 5 s, 0.034 rad
+#       robot does not fall while ACTIVE, the mean tracking error <= 0.047 rad (1.5 x the untuned
+#       gains' in-process 0.031 rad; with the shipped, tuned gains: 0.021 rad over 5 s, 0.034 rad
 #       over 60 s), no deadline
 #       fault (at most 5 single misses: see below), no fault event, and the LCM log decodes completely with our types.
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR fault SPEC REASON
