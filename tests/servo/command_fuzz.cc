@@ -1,5 +1,5 @@
-// libFuzzer target for every LCM handler input the daemon has (a single malformed
-// datagram must not stop the daemon): the command channel's authenticator (servo/telemetry/command_auth.h), the command
+// libFuzzer target for every LCM handler input the daemon has (issue 13, finding 1: one datagram
+// killed it): the command channel's authenticator (servo/telemetry/command_auth.h), the command
 // decoder behind it and the command rules (servo/telemetry/command_channel.h). Any bytes, as a
 // datagram, are refused without a crash, an exception or UB; the same bytes wrapped with the
 // robot's key reach the decoder and the validator, which also never crash; no random datagram

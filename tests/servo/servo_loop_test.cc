@@ -330,7 +330,7 @@ TEST(ServoLoop, ControlledStopEndsWithDevicesInPreOp) {
   for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->nmt_state(j), hal::NmtState::kPreOperational) << j;
 }
 
-// enable stands the robot up first (the reference waits), a controlled stop sits it
+// Enable stands the robot up first (the reference waits), a controlled stop sits it
 // down to the crouch first (then damping, then PRE-OP), a disable likewise (then STANDBY)
 TEST(ServoLoop, StandsUpAfterEnableAndSitsDownBeforeTheStop) {
   ServoConfig cfg = testing::DefaultServoConfig();
