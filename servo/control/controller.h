@@ -6,8 +6,8 @@
 //   PD + g:     τ = τ_g(q, v, stance) + PD(q_ref − q, q̇_ref − q̇)      (PdGains; pd_gravity.h)
 //   ID kinds:   q̈_des = q̈_ref + Kp (q_ref − q) + Kd (q̇_ref − q̇)     (FeedbackGains, 1/s², 1/s)
 //               τ = ID(q, v, q̈_des, stance, μ) + Kp_τ (q_ref − q) + Kd_τ (q̇_ref − q̇) + I
-//               I ← clamp(I + Ki_τ (q_ref − q) dt, ±i_limit_τ)   (issue 15: integral action against
-//               the model's errors; not integrated while τ saturates along the error: anti-windup)
+//               I ← clamp(I + Ki_τ (q_ref − q) dt, ±i_limit_τ)   (integral action against the
+//               model's errors; not integrated while τ saturates along the error: anti-windup)
 //
 // The three ID controllers share the same q̈_des and the same optional PD torque, so their
 // comparison is fair; the PD torque gains are zero unless configured.

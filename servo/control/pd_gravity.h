@@ -1,4 +1,4 @@
-// PD + gravity compensation: the fourth baseline of the comparison (issue 15, docs/experiments.md).
+// PD + gravity compensation: the fourth baseline of the comparison (docs/experiments.md).
 // It has a model-based feed-forward but no contact model: no friction cone, no contact
 // accelerations, no impulses. It separates "any model-based feed-forward" from the two-stage
 // ID's "contact-aware feed-forward".

@@ -104,7 +104,7 @@ TEST_P(ServoFault, ReachesTheSafeStateWithinTwoCycles) {
   cfg.deadline.max_consecutive_misses = fc.reason == EventReason::kDeadlineMiss ? 1 : 1000;
   // In the deadline case a cycle preempted by a busy machine before the injection is a real miss
   // and, rightly, a fault: then the precondition (ACTIVE, nothing missed) is made again on a fresh
-  // rig instead of failing the test (issue 14: tests must not need an idle machine).
+  // rig instead of failing the test (tests must not need an idle machine).
   std::unique_ptr<ServoRig> owned;
   for (int attempt = 1; attempt <= 20; ++attempt) {
     owned = std::make_unique<ServoRig>(cfg);
@@ -279,7 +279,7 @@ TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
   for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->torque_setpoint_Nm(j), 0.0);
 }
 
-// set velocity (issue 19): taken in any mode by a trot (an event says what it set), refused with
+// set velocity: taken in any mode by a trot (an event says what it set), refused with
 // an event naming the reference otherwise
 TEST(ServoLoop, SetVelocitySteersTheTrotOnly) {
   const auto detail_of = [](const ServoRig& rig, EventReason reason) {
@@ -330,7 +330,7 @@ TEST(ServoLoop, ControlledStopEndsWithDevicesInPreOp) {
   for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->nmt_state(j), hal::NmtState::kPreOperational) << j;
 }
 
-// Issue 19: enable stands the robot up first (the reference waits), a controlled stop sits it
+// Enable stands the robot up first (the reference waits), a controlled stop sits it
 // down to the crouch first (then damping, then PRE-OP), a disable likewise (then STANDBY)
 TEST(ServoLoop, StandsUpAfterEnableAndSitsDownBeforeTheStop) {
   ServoConfig cfg = testing::DefaultServoConfig();
@@ -387,12 +387,12 @@ TEST(ServoLoop, FullCyclesDoNotTouchTheHeap) {
     ServoConfig cfg = ActiveConfig();
     cfg.controller.kind = kind;
     cfg.controller.pd_gravity = {cfg.controller.pid.kp, cfg.controller.pid.kd};
-    cfg.controller.feedback.ki_tau.setConstant(100.0);  // the ID kinds' integral (issue 15)
+    cfg.controller.feedback.ki_tau.setConstant(100.0);  // the ID kinds' integral
     cfg.controller.feedback.i_limit_tau.setConstant(20.0);
-    cfg.disturbance.enabled = true;  // and the trunk's disturbance observer (issue 15)
+    cfg.disturbance.enabled = true;  // and the trunk's disturbance observer
     cfg.reference = Reference::Kind::kTrot;
-    cfg.friction.enabled = true;  // the friction estimator in the cycle too (issue 18)
-    cfg.stand_up_s = 0.3;         // and the stand-up and sit-down (issue 19)
+    cfg.friction.enabled = true;  // the friction estimator in the cycle too
+    cfg.stand_up_s = 0.3;         // and the stand-up and sit-down
     cfg.sit_down_s = 0.3;
     ServoRig rig(cfg);
     rig.BringUpAndStart();

@@ -1,4 +1,4 @@
-// A plant that is not the model (issue 15, part 2): the perturbed model differs from the nominal
+// A plant that is not the model: the perturbed model differs from the nominal
 // one by what was asked, HyQ's hydraulic torque loop has its documented bandwidth, and friction,
 // delay, biases and the profiles behave as configured (label sim).
 #include <cmath>
