@@ -4,16 +4,16 @@
 // its clock at the end of each ACTIVE cycle and relays what it asks (MotionRequests) to the safety
 // state machine, which alone decides the mode.
 //
-//   phase      on_enter             sample (every cycle)        advance (end of an       sit (a sit-down
-//                                                               ACTIVE cycle)            is pending)
-//   REST       -                    holds still                 -                        ignored
-//   STAND-UP   posture move up      the move; not ACTIVE: REST  stand_up_s: REFERENCE    SIT-DOWN
-//   REFERENCE  reference clock 0    reference and ramp (1);     the clock; duration_s:   SIT-DOWN once
-//                                   not ACTIVE: REST            asks for a stop          every foot is down
-//   SIT-DOWN   posture move down    the move; not ACTIVE: REST  sit_down_s: SETTLE,      ignored
-//                                                               asks for stop or damping
-//   SETTLE     -                    DAMPING: the sit-down's     -                        ignored
-//                                   damping and its hold
+//   phase      on_enter           sample (every cycle)       advance (end of an     sit (a sit-down
+//                                                           ACTIVE cycle)          is pending)
+//   REST       -                  holds still                -                      ignored
+//   STAND-UP   posture move up    the move; not ACTIVE: REST stand_up_s: REFERENCE  SIT-DOWN
+//   REFERENCE  reference clock 0  reference and ramp (1);    the clock; duration_s: SIT-DOWN once
+//                                 not ACTIVE: REST           asks for a stop        every foot down
+//   SIT-DOWN   posture move down  the move; not ACTIVE: REST sit_down_s: SETTLE,    ignored
+//                                                           asks for stop or damp
+//   SETTLE     -                  DAMPING: the sit-down's    -                      ignored
+//                                 damping and its hold
 //   Enable (the mode became ACTIVE), from any phase: STAND-UP when stand_up_s > 0, else REFERENCE.
 //
 //   REST       outside ACTIVE: the reference holds still (the joint reference keeps its last value)
@@ -21,7 +21,7 @@
 //              ground, up to the reference's base height in stand_up_s
 //   REFERENCE  the reference at its own clock (reference time, 0 at the phase's start), blended
 //              from the posture the phase began in (q0) by the enable ramp over enable_ramp_s:
-//                q_ref = q0 + s(x) (q_r − q0),  s(x) = 3x² − 2x³,  x = t / enable_ramp_s     (1)
+//                q_ref = q0 + s(x) (q_r − q0),  s(x) = 3x² − 2x³,  x = t / enable_ramp_s   (1)
 //              (q̇_ref by the product rule; q̈_ref = s q̈_r)
 //   SIT-DOWN   PostureMove from the measured posture down to crouch_height_m in sit_down_s, the
 //              reference's stance feet on the ground, its base velocity braked to rest

@@ -89,12 +89,12 @@ struct SafetyTable {
     m.Push(e);
     return {m.mode_};
   }
-  static Next FaultWhileDamping(M& m, const Occurrence& o) noexcept {
+  static Next FaultInDamping(M& m, const Occurrence& o) noexcept {
     m.damping_next_ = m.stop_ ? ServoMode::kStopped : ServoMode::kFault;
     return RecordOnce(m, o);
   }
 
-  static Next DampingTimer(M& m, const Occurrence&) noexcept {
+  static Next DampingDone(M& m, const Occurrence&) noexcept {
     if (m.hold_damping_ ||
         static_cast<double>(m.cycles_in_mode_) * m.dt_ < m.limits_.damping_duration_s)
       return {m.mode_};
@@ -109,14 +109,22 @@ struct SafetyTable {
 };
 
 // clang-format off
+constexpr hal::DeviceState kPreOp = hal::DeviceState::kPreOp, kSafeOp = hal::DeviceState::kSafeOp;
 const SafetyStateMachine::ModeRow SafetyTable::kRows[kNumServoModes] = {
-  // torque,           on entry (devices to),           bring-up,  enable,       disable, damp, acknowledge, stop,        fault,             damping timer
-  {Torque::kZero,       false, hal::DeviceState::kPreOp,  ToStandby, RefuseEnable, Stay,    Stay, Stay,        StopNow,     FaultNow,          Stay},          // INIT
-  {Torque::kZero,       false, hal::DeviceState::kPreOp,  Stay,      Enable,       Stay,    Damp, Stay,        StopNow,     FaultNow,          Stay},          // STANDBY
-  {Torque::kController, false, hal::DeviceState::kPreOp,  Stay,      RefuseEnable, Disable, Damp, Stay,        StopDamping, FaultDamping,      Stay},          // ACTIVE
-  {Torque::kDamping,    false, hal::DeviceState::kPreOp,  Stay,      RefuseEnable, Stay,    Stay, Stay,        Stay,        FaultWhileDamping, DampingTimer},  // DAMPING
-  {Torque::kZero,       true,  hal::DeviceState::kSafeOp, Stay,      RefuseEnable, Stay,    Stay, Acknowledge, StopNow,     RecordOnce,        Stay},          // FAULT
-  {Torque::kZero,       true,  hal::DeviceState::kPreOp,  Stay,      RefuseEnable, Stay,    Stay, Stay,        Stay,        RecordOnce,        Stay},          // STOPPED
+  // torque, the devices asked for on entry;
+  // bring-up   enable        disable  damp  acknowledge  stop         fault           damping timer
+  /* INIT */     {Torque::kZero,       false, kPreOp,
+     ToStandby, RefuseEnable, Stay,    Stay, Stay,        StopNow,     FaultNow,       Stay},
+  /* STANDBY */  {Torque::kZero,       false, kPreOp,
+     Stay,      Enable,       Stay,    Damp, Stay,        StopNow,     FaultNow,       Stay},
+  /* ACTIVE */   {Torque::kController, false, kPreOp,
+     Stay,      RefuseEnable, Disable, Damp, Stay,        StopDamping, FaultDamping,   Stay},
+  /* DAMPING */  {Torque::kDamping,    false, kPreOp,
+     Stay,      RefuseEnable, Stay,    Stay, Stay,        Stay,        FaultInDamping, DampingDone},
+  /* FAULT */    {Torque::kZero,       true,  kSafeOp,
+     Stay,      RefuseEnable, Stay,    Stay, Acknowledge, StopNow,     RecordOnce,     Stay},
+  /* STOPPED */  {Torque::kZero,       true,  kPreOp,
+     Stay,      RefuseEnable, Stay,    Stay, Stay,        Stay,        RecordOnce,     Stay},
 };
 // clang-format on
 

@@ -1,27 +1,29 @@
 // The daemon's mode state machine (docs/servo.md, "Safety"): every decision about the mode and
-// what it means for the outputs is made here. A const table, one row per mode (the outputs and,
-// per event, a handler returning the next mode), in the manner of hal/device_state_machine.cc:
+// what it means for the outputs is made here. A const table, one row per mode (the torque, the
+// devices' state asked for on entry and, per event, a handler returning the next mode), in the
+// manner of hal/device_state_machine.cc:
 //
-//   mode     torque      on entry   bring-up  enable   disable  damp     acknowledge  stop     fault    damping timer
-//   INIT     0 N·m       -          STANDBY   refused  -        -        -            STOPPED  FAULT    -
-//   STANDBY  0 N·m       -          -         ACTIVE¹  -        DAMPING  -            STOPPED  FAULT    -
-//   ACTIVE   controller  -          -         refused  STANDBY  DAMPING  -            DAMPING  DAMPING  -
-//   DAMPING  −D q̇        -          -         refused  -        -        -            -²       -³       FAULT / STANDBY /
-//                                                                                                      STOPPED⁴
-//   FAULT    0 N·m       SAFE-OP    -         refused  -        -        STANDBY⁵     STOPPED  -³       -
-//   STOPPED  0 N·m       PRE-OP     -         refused  -        -        -            -        -³       -
+//            bring-up  enable   disable  damp     acknowledge  stop     fault    damping timer
+//   INIT     STANDBY   refused  -        -        -            STOPPED  FAULT    -
+//   STANDBY  -         ACTIVE¹  -        DAMPING  -            STOPPED  FAULT    -
+//   ACTIVE   -         refused  STANDBY  DAMPING  -            DAMPING  DAMPING  -
+//   DAMPING  -         refused  -        -        -            -²       -³       ⁴
+//   FAULT    -         refused  -        -        STANDBY⁵     STOPPED  -³       -
+//   STOPPED  -         refused  -        -        -            -        -³       -
 //
-//   ¹ refused once a stop was requested. ² DAMPING then ends in STOPPED. ³ an event, once per reason
-//   until acknowledged (in DAMPING the damping then ends in FAULT). ⁴ after damping_duration_s (not
-//   while the caller holds it: the sit-down's damping, motion_sequencer.h): FAULT when a fault
-//   caused it, STOPPED after a stop, STANDBY after a damp command. ⁵ with clean inputs; else refused.
+//   ¹ refused once a stop was requested. ² DAMPING then ends in STOPPED. ³ an event, once per
+//   reason until acknowledged (in DAMPING the damping then ends in FAULT). ⁴ after
+//   damping_duration_s, unless the caller holds it (the sit-down's settling, motion_sequencer.h):
+//   STOPPED once a stop was requested, else FAULT when a fault caused it, STANDBY after a damp
+//   command. ⁵ with clean inputs; else refused. "-": no transition, no event; a refusal is an
+//   event.
 //
 // STANDBY: devices in OP, 0 N·m. ACTIVE: the controller's torque. DAMPING: τ = −D q̇ on the joints
 // whose inputs are valid, 0 N·m on the others. FAULT: 0 N·m and the devices asked to SAFE-OP
 // (outputs disabled) until an acknowledgement with the faults gone. STOPPED: 0 N·m, the devices
 // asked to PRE-OP; the run is finished once they are there (or the stop timeout passed). Every
 // transition, every refusal and every new fault while already safe is a SafetyEvent with a reason
-// (fixed ring, drained by the loop); "-" is no transition and no event.
+// (fixed ring, drained by the loop).
 //
 // The acknowledgement is a handshake: in FAULT the loop asks the devices back to OP
 // (RequestAcknowledge) and the state machine returns to STANDBY once they are all in OP with
