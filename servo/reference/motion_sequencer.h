@@ -34,7 +34,6 @@
 // overrides a pending disable. Nothing here allocates after construction.
 #pragma once
 
-#include <array>
 #include <cstdint>
 
 #include "servo/control/controller.h"
