@@ -28,6 +28,16 @@ bool AllDown(const hal::Hal& hal) noexcept {
   return true;
 }
 
+MotionConfig MakeMotionConfig(const ServoConfig& c) {
+  return {.stand_up_s = c.stand_up_s,
+          .sit_down_s = c.sit_down_s,
+          .crouch_height_m = c.crouch_height_m,
+          .enable_ramp_s = c.enable_ramp_s,
+          .duration_s = c.duration_s,
+          .settle_speed_rad_s = c.sit_settle_speed_rad_s,
+          .settle_max_s = c.sit_damping_max_s};
+}
+
 Reference MakeReference(const ServoConfig& c, const dynamics::Model& m) {
   switch (c.reference) {
     case Reference::Kind::kTrot: return Reference::Trot(m, c.trot);
@@ -67,18 +77,17 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
                 config.clock == ClockMode::kRealtime || config.deadline.stop_in_lockstep),
       estimator_(model, config.estimator, config.period_s()),
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
-      posture_(std::make_unique<PostureMove>(model)),
       controller_(std::make_unique<Controller>(model, ForClock(config.controller, config.clock))),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
       friction_(config.friction),
       disturbance_(model, config.disturbance, config.period_s()),
       base_gains_(config.controller.feedback),
       command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
-                       reference_.get(), config.safety.damp_on_bad_command} {
+                       reference_.get(), config.safety.damp_on_bad_command},
+      sequencer_(model, reference_.get(), MakeMotionConfig(config), config.period_s(), &ref_,
+                 &joint_ref_) {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
   id_env_ = env_;
-  reference_->Sample(0.0, &ref_);
-  joint_ref_ = ref_.joints;
   snap_.num_buses = static_cast<std::uint8_t>(std::min<std::size_t>(hal.num_buses(), kMaxBuses));
 }
 
@@ -113,8 +122,8 @@ void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexc
   est_status_ = estimator_.Update(hal_.image(), ref_.joints.stance); clock.Mark(&timing_.estimate_ns);
   SampleReference();                                                 clock.Mark(&timing_.reference_ns);
   RunController();                                                   clock.Mark(&timing_.control_ns);
-  const SafetyDecision decision =
-      safety_.Decide(safety_.mode() == ServoMode::kStopped && AllDown(hal_));
+  const SafetyDecision decision = safety_.Decide(
+      safety_.mode() == ServoMode::kStopped && AllDown(hal_), sequencer_.holds_damping());
   ApplyDecision(decision, now_ns);                                   clock.Mark(&timing_.safety_ns);
   const hal::HalStatus ws = hal_.Write(now_ns);
   SpinInjectedOverrun();                                             clock.Mark(&timing_.write_ns);
@@ -133,8 +142,8 @@ void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
   for (int i = 0; i < 4 && sink_ != nullptr && sink_->PopCommand(&cmd); ++i) {
     // a disable while ACTIVE sits down first when configured (then damps, then 0 N·m)
     if (cmd.kind == ServoCommand::Kind::kDisable && safety_.mode() == ServoMode::kActive &&
-        config_.sit_down_s > 0.0) {
-      RequestSitDown(AfterSit::kDisable);
+        sequencer_.sits_down()) {
+      Relay(sequencer_.RequestSitDown(SitDownCause::kDisable, MotionNow()));
       ++stats_.commands_applied;
       continue;
     }
@@ -156,61 +165,42 @@ void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
   }
   if (safety_.MaybeAutoEnable(est_status_ == EstimatorStatus::kOk)) EnterActive();
   if (stop_requested_.load(std::memory_order_relaxed)) {
-    if (safety_.mode() == ServoMode::kActive && config_.sit_down_s > 0.0) {
-      RequestSitDown(AfterSit::kStop);
+    if (safety_.mode() == ServoMode::kActive && sequencer_.sits_down()) {
+      Relay(sequencer_.RequestSitDown(SitDownCause::kStop, MotionNow()));
     } else {
       safety_.Stop();
     }
   }
 }
 
-// a sit-down starts when the reference has every foot on the ground (a trot: within half a gait
-// cycle), at the latest after 1 s; a stop overrides a pending disable
-void ServoLoop::RequestSitDown(AfterSit then) noexcept {
-  if (phase_ == Phase::kSitDown) return;
-  if (!sit_pending_ || then == AfterSit::kStop) after_sit_ = then;
-  sit_pending_ = true;
-  const auto& st = joint_ref_.stance;
-  const bool all_down = st[0] && st[1] && st[2] && st[3];
-  if (all_down || phase_ == Phase::kStandUp || sit_wait_s_ >= 1.0) {
-    sit_pending_ = false;
-    sit_wait_s_ = 0.0;
-    BeginSitDown(after_sit_);
+// what the motion sequencer is told: the mode and the measured joints
+MotionInputs ServoLoop::MotionNow() const noexcept {
+  MotionInputs in;
+  in.active = safety_.mode() == ServoMode::kActive;
+  in.damping = safety_.mode() == ServoMode::kDamping;
+  in.damping_for_fault = safety_.damping_for_fault();
+  in.cycles_in_mode = safety_.cycles_in_mode();
+  for (int j = 0; j < kNumJoints; ++j) {
+    const auto& joint = hal_.image().joints[static_cast<std::size_t>(j)];
+    in.q_rad(j) = joint.position_rad;
+    const bool ok = joint.valid() && std::isfinite(joint.velocity_rad_s);
+    in.fastest_joint_rad_s =
+        ok ? std::max(in.fastest_joint_rad_s, std::abs(joint.velocity_rad_s)) : HUGE_VAL;
   }
+  return in;
 }
 
-// the controlled stop's first part: from the measured posture down to the crouch, with the
-// feet of the reference's stance on the ground and the others lowered onto it
-void ServoLoop::BeginSitDown(AfterSit then) noexcept {
-  VectorJ q;
-  for (int j = 0; j < kNumJoints; ++j) q(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
-  // the reference's base velocity (a trot's), in the base frame, is braked to rest (stand-up:
-  // none)
-  if (phase_ == Phase::kStandUp) ref_.base = BaseReference{};
-  const double c = std::cos(ref_.base.yaw), s = std::sin(ref_.base.yaw);
-  const Eigen::Vector2d v0_B(c * ref_.base.v_W.x() + s * ref_.base.v_W.y(),
-                             -s * ref_.base.v_W.x() + c * ref_.base.v_W.y());
-  posture_->Start(q, joint_ref_.stance, config_.crouch_height_m, config_.sit_down_s, v0_B);
-  phase_ = Phase::kSitDown;
-  phase_t_ = 0.0;
-  after_sit_ = then;
-  safety_.Note(then == AfterSit::kStop ? EventReason::kStopRequest : EventReason::kDisableCommand,
-               "sitting down to the crouch first");
-}
-
-// the end of a stand-up (the reference starts) or of a sit-down (the deferred request)
-void ServoLoop::AdvancePhase() noexcept {
-  if (phase_ == Phase::kReference || phase_t_ < posture_->duration_s()) return;
-  if (phase_ == Phase::kStandUp) {
-    phase_ = Phase::kReference;
-    t_ref_ = 0.0;
-    q0_ = joint_ref_.q;  // the enable ramp blends from the stand-up's end to the reference
-    return;
+// what the motion sequencer asks for, told to the safety state machine
+void ServoLoop::Relay(const MotionRequests& r) noexcept {
+  const bool stop = r.cause == SitDownCause::kStop;
+  if (r.sit_down_began)
+    safety_.Note(stop ? EventReason::kStopRequest : EventReason::kDisableCommand,
+                 "sitting down to the crouch first");
+  if (r.sit_down_ended) {
+    if (stop) safety_.Stop();
+    else (void)safety_.Damp();  // damping, then STANDBY at 0 N·m
   }
-  sat_down_ = true;
-  if (after_sit_ == AfterSit::kStop) safety_.Stop();
-  else (void)safety_.Damp();  // damping, then STANDBY at 0 N·m
-  phase_ = Phase::kReference;
+  if (r.duration_over) RequestStop();
 }
 
 void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
@@ -222,45 +212,18 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
 }
 
 void ServoLoop::EnterActive() noexcept {
-  t_ref_ = 0.0;
   controller_->Reset();  // no integral or warm start carried over from an earlier ACTIVE
   disturbance_.Reset();
   active_time_ = 0.0;
-  for (int j = 0; j < kNumJoints; ++j)
-    q0_(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
-  reference_->Sample(0.0, &ref_);
-  phase_ = Phase::kReference;
-  phase_t_ = 0.0;
-  sat_down_ = false;
-  sit_pending_ = false;
-  sit_wait_s_ = 0.0;
-  if (config_.stand_up_s > 0.0) {
-    // from the resting posture, every foot on the ground, up to the reference's height
-    posture_->Start(q0_, {true, true, true, true}, ref_.base.p_W.z(), config_.stand_up_s);
-    phase_ = Phase::kStandUp;
-  }
+  sequencer_.Enable(MotionNow());
 }
 
+// the motion phase's reference (outside ACTIVE it holds still)
 void ServoLoop::SampleReference() noexcept {
-  if (safety_.mode() != ServoMode::kActive) return;  // the reference holds still outside ACTIVE
-  if (phase_ != Phase::kReference) {
-    if (!posture_->Sample(phase_t_, &joint_ref_))
-      safety_.Report(MakeFault(EventReason::kControllerFailure, -1, -1,
-                               "%s: a leg's inverse kinematics failed",
-                               phase_ == Phase::kStandUp ? "stand-up" : "sit-down"));
-    return;
-  }
-  reference_->Sample(t_ref_, &ref_);
-  joint_ref_ = ref_.joints;
-  // enable ramp: from the posture measured at enable to the reference (smoothstep)
-  if (config_.enable_ramp_s > 0.0 && t_ref_ < config_.enable_ramp_s) {
-    const double x = t_ref_ / config_.enable_ramp_s;
-    const double s = x * x * (3.0 - 2.0 * x), sd = 6.0 * x * (1.0 - x) / config_.enable_ramp_s;
-    const dynamics::VectorJ gap = ref_.joints.q - q0_;
-    joint_ref_.q = q0_ + s * gap;
-    joint_ref_.qd = s * ref_.joints.qd + sd * gap;
-    joint_ref_.qdd = s * ref_.joints.qdd;
-  }
+  if (!sequencer_.Sample(MotionNow()))
+    safety_.Report(MakeFault(EventReason::kControllerFailure, -1, -1,
+                             "%s: a leg's inverse kinematics failed",
+                             ToString(sequencer_.phase())));
 }
 
 void ServoLoop::RunController() noexcept {
@@ -282,7 +245,7 @@ void ServoLoop::RunController() noexcept {
   }
   EstimateFriction();
   // the disturbance observer's trunk wrench corrects the model's h for this cycle's controller
-  // (h − d_b; issue 15), after the friction estimate took its forces from the nominal h
+  // (h − d_b), after the friction estimate took its forces from the nominal h
   const bool correct = config_.disturbance.enabled;
   if (correct) {
     VectorJ tau_m;
@@ -306,7 +269,7 @@ void ServoLoop::RunController() noexcept {
   tau_ = out_.tau_Nm;
 }
 
-// the μ Stage I gets: the configured or commanded one, or the estimate below it (issue 18)
+// the μ Stage I gets: the configured or commanded one, or the estimate below it
 void ServoLoop::EstimateFriction() noexcept {
   if (!config_.friction.enabled) return;
   std::array<FootFrictionInput, kNumFeet> in;
@@ -322,22 +285,15 @@ void ServoLoop::EstimateFriction() noexcept {
 }
 
 void ServoLoop::Damping() noexcept {
-  // after a sit-down the legs fold onto their stops under stronger damping, until the robot
-  // rests (every joint slower than sit_settle_speed_rad_s for 0.2 s; at most sit_damping_max_s);
-  // a fault's damping stays as configured (safety.*)
-  const bool sit = sat_down_ && !safety_.damping_for_fault();
-  const double D = sit ? config_.sit_damping_Nms_per_rad : config_.safety.damping_Nms_per_rad;
-  double fastest = 0.0;
+  // after a sit-down the legs fold onto their stops under the sit-down's damping
+  // (motion_sequencer.h, SETTLE); a fault's damping stays as configured (safety.*)
+  const double D = sequencer_.settling() ? config_.sit_damping_Nms_per_rad
+                                         : config_.safety.damping_Nms_per_rad;
   for (int j = 0; j < kNumJoints; ++j) {
     const auto& in = hal_.image().joints[static_cast<std::size_t>(j)];
     const bool ok = in.valid() && std::isfinite(in.velocity_rad_s);
     tau_(j) = ok ? -D * in.velocity_rad_s : 0.0;
-    fastest = ok ? std::max(fastest, std::abs(in.velocity_rad_s)) : HUGE_VAL;
   }
-  if (safety_.cycles_in_mode() <= 1) settled_s_ = 0.0;
-  settled_s_ = fastest < config_.sit_settle_speed_rad_s ? settled_s_ + dt_ : 0.0;
-  const double in_mode_s = static_cast<double>(safety_.cycles_in_mode()) * dt_;
-  safety_.HoldDamping(sit && settled_s_ < 0.2 && in_mode_s < config_.sit_damping_max_s);
 }
 
 // the safety decision applied: the torque the mode allows, the devices' requested state
@@ -359,7 +315,8 @@ void ServoLoop::SpinInjectedOverrun() noexcept {
   overrun_cycles_.fetch_sub(1, std::memory_order_relaxed);
 }
 
-// the deadline, the run's statistics and the reference clock
+// the deadline, the run's statistics and, after an ACTIVE cycle, the motion phase's clock (its
+// requests take effect from the next cycle's start)
 void ServoLoop::EndCycle(const SafetyDecision& d, std::int64_t wakeup_latency_ns,
                          std::int64_t cpu0) noexcept {
   timing_.wakeup_latency_ns = wakeup_latency_ns;
@@ -383,18 +340,7 @@ void ServoLoop::EndCycle(const SafetyDecision& d, std::int64_t wakeup_latency_ns
     stats_.qp_time_sum_us += qp_us;
     stats_.qp_time_max_us = std::max(stats_.qp_time_max_us, qp_us);
     active_time_ += dt_;
-    if (sit_pending_) {
-      sit_wait_s_ += dt_;
-      RequestSitDown(after_sit_);  // the next cycle's reference decides; this one's may too
-    }
-    if (phase_ == Phase::kReference) {
-      t_ref_ += dt_;
-      // the run's duration is reference time: the stand-up and the sit-down come on top
-      if (config_.duration_s > 0.0 && t_ref_ >= config_.duration_s) RequestStop();
-    } else {
-      phase_t_ += dt_;
-      AdvancePhase();
-    }
+    Relay(sequencer_.Advance(MotionNow()));
   }
 }
 
@@ -427,7 +373,7 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
   const auto& image = hal_.image();
   s.cycle = cycle_;
   s.time_ns = now_ns;
-  s.reference_time_s = t_ref_;
+  s.reference_time_s = sequencer_.reference_time_s();
   s.mode = safety_.mode();
   s.controller = controller_->kind();
   double err2 = 0.0;
