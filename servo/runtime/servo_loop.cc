@@ -5,7 +5,6 @@
 #include <cmath>
 
 #include "hal/clock.h"
-#include "servo/runtime/command_rules.h"
 #include "servo/runtime/output_checker.h"
 
 namespace hyq::servo {
@@ -73,8 +72,8 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       friction_(config.friction),
       disturbance_(model, config.disturbance, config.period_s()),
       base_gains_(config.controller.feedback),
-      command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
-                       reference_.get(), config.safety.damp_on_bad_command} {
+      command_port_({&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
+                     reference_.get(), &est_status_}) {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
   id_env_ = env_;
   reference_->Sample(0.0, &ref_);
@@ -138,7 +137,7 @@ void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
       ++stats_.commands_applied;
       continue;
     }
-    switch (ApplyCommand(cmd, est_status_, command_targets_)) {
+    switch (ApplyCommand(cmd, config_.safety.damp_on_bad_command, &command_port_)) {
       case CommandOutcome::kRejected:
         ++stats_.commands_rejected;
         continue;
@@ -282,7 +281,7 @@ void ServoLoop::RunController() noexcept {
   }
   EstimateFriction();
   // the disturbance observer's trunk wrench corrects the model's h for this cycle's controller
-  // (h − d_b; issue 15), after the friction estimate took its forces from the nominal h
+  // (h − d_b), after the friction estimate took its forces from the nominal h
   const bool correct = config_.disturbance.enabled;
   if (correct) {
     VectorJ tau_m;
@@ -306,7 +305,7 @@ void ServoLoop::RunController() noexcept {
   tau_ = out_.tau_Nm;
 }
 
-// the μ Stage I gets: the configured or commanded one, or the estimate below it (issue 18)
+// the μ Stage I gets: the configured or commanded one, or the estimate below it
 void ServoLoop::EstimateFriction() noexcept {
   if (!config_.friction.enabled) return;
   std::array<FootFrictionInput, kNumFeet> in;

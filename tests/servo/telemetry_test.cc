@@ -29,7 +29,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
@@ -196,7 +196,7 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
   lcm::LogFile log(log_path, "r");
   ASSERT_TRUE(log.good());
   // UDP multicast is best effort, and lcm-logger's receive ring drops datagrams on a busy machine
-  // (issue 14: 174-276 of 300 under two CPU hogs). What the transport promises, and what is
+  // (under CPU load, a large share of 300). What the transport promises, and what is
   // tested: every message that arrives decodes and equals what was pushed for its cycle, each
   // channel's messages arrive in order without duplicates, and the losses are counted (here,
   // printed); not that all of them arrive.

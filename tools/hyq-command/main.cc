@@ -12,7 +12,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
 
 namespace {
 

@@ -30,7 +30,7 @@
 #include "servo/runtime/servo_loop.h"
 #include "servo/runtime/realtime_thread.h"
 #include "servo/runtime/servo_runner.h"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
 #include "servo/telemetry/telemetry.h"
 
 namespace {

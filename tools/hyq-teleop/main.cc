@@ -1,6 +1,6 @@
 // hyq-teleop: steers the trot from a terminal (docs/steering.md). Keys change the commanded base
 // velocity in steps within limits; the changes are signed set-velocity commands
-// (lcmt_hyq_command KIND_SET_VELOCITY in an lcmt_hyq_signed_command, servo/telemetry/command_auth.h)
+// (lcmt_hyq_command KIND_SET_VELOCITY in an lcmt_hyq_signed_command, servo/command/command_auth.h)
 // sent at a bounded rate; the screen shows the commanded velocity and the estimated one from
 // HYQ_BASE_STATE. The terminal is in raw mode (termios) while it runs and restored on every exit.
 #include <fcntl.h>
@@ -25,7 +25,7 @@
 
 #include "hyq_lcm/lcmt_hyq_base_state.hpp"
 #include "hyq_lcm/lcmt_hyq_command.hpp"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
 
 namespace {
 
