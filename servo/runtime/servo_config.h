@@ -10,6 +10,7 @@
 
 #include "hal/hal_config.h"
 #include "servo/common/servo_types.h"
+#include "servo/command/command_config.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/estimator.h"

@@ -5,7 +5,6 @@
 #include <cmath>
 
 #include "hal/clock.h"
-#include "servo/runtime/command_rules.h"
 #include "servo/runtime/output_checker.h"
 
 namespace hyq::servo {
@@ -82,8 +81,8 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       friction_(config.friction),
       disturbance_(model, config.disturbance, config.period_s()),
       base_gains_(config.controller.feedback),
-      command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
-                       reference_.get(), config.safety.damp_on_bad_command},
+      command_port_({&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
+                     reference_.get(), &est_status_}),
       sequencer_(model, reference_.get(), MakeMotionConfig(config), config.period_s(), &ref_,
                  &joint_ref_) {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
@@ -147,7 +146,7 @@ void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
       ++stats_.commands_applied;
       continue;
     }
-    switch (ApplyCommand(cmd, est_status_, command_targets_)) {
+    switch (ApplyCommand(cmd, config_.safety.damp_on_bad_command, &command_port_)) {
       case CommandOutcome::kRejected:
         ++stats_.commands_rejected;
         continue;

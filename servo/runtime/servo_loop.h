@@ -3,11 +3,12 @@
 //   → telemetry
 // The checks only find faults (input_checker.h, output_checker.h, deadline_monitor.h); every
 // decision about the mode and the outputs is the safety state machine's
-// (safety_state_machine.h); the commands' mode rules are command_rules.h; the reference stage
-// samples the motion phases (stand-up, reference, sit-down: servo/reference/motion_sequencer.h),
-// whose requests the loop relays to the safety state machine. One call of Cycle() per
-// period, from one thread; nothing in it allocates, locks, logs, blocks or throws. The clock
-// (real time or lock-step) is the caller's: servo/runtime/servo_runner.h.
+// (safety_state_machine.h); the commands' mode rules are servo/command/command_rules.h, acting
+// through command_port.h; the reference stage samples the motion phases (stand-up, reference,
+// sit-down: servo/reference/motion_sequencer.h), whose requests the loop relays to the safety
+// state machine. One call of Cycle() per period, from one thread; nothing in it allocates, locks,
+// logs, blocks or throws. The clock (real time or lock-step) is the caller's:
+// servo/runtime/servo_runner.h.
 #pragma once
 
 #include <atomic>
@@ -25,7 +26,7 @@
 #include "servo/estimation/friction_estimator.h"
 #include "servo/reference/motion_sequencer.h"
 #include "servo/reference/reference.h"
-#include "servo/runtime/command_rules.h"
+#include "servo/runtime/command_port.h"
 #include "servo/runtime/deadline_monitor.h"
 #include "servo/runtime/input_checker.h"
 #include "servo/runtime/latency_histogram.h"
@@ -169,7 +170,7 @@ class ServoLoop {
   DisturbanceObserver disturbance_;
   ContactEnvironment id_env_;  // what the controller gets: env_, or the estimated μ
   FeedbackGains base_gains_;
-  CommandTargets command_targets_;  // what a command may change (built once)
+  CommandPort command_port_;  // what a command may change (built once)
   ReferenceSample ref_;
   JointReference joint_ref_;  // the phase's: the enable ramp, the stand-up or the sit-down
   MotionSequencer sequencer_;  // writes ref_ and joint_ref_

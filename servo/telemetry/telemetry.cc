@@ -15,8 +15,8 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "servo/telemetry/command_auth.h"
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_auth.h"
+#include "servo/command/command_channel.h"
 #include "servo/telemetry/lcm_mapping.h"
 #include "servo/telemetry/lcm_url.h"
 #include "servo/telemetry/spsc_ring.h"

@@ -13,7 +13,7 @@
 
 #include "config/servo_config_loader.h"
 #include "hal/config_error.h"
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_channel.h"
 
 namespace hyq {
 namespace {

@@ -29,7 +29,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
