@@ -87,7 +87,6 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
                  &joint_ref_) {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
   id_env_ = env_;
-  snap_.num_buses = static_cast<std::uint8_t>(std::min<std::size_t>(hal.num_buses(), kMaxBuses));
 }
 
 ServoLoop::~ServoLoop() = default;
@@ -347,8 +346,9 @@ void ServoLoop::PublishTelemetry(std::int64_t now_ns, hal::HalStatus rs, hal::Ha
                                  ServoMode mode) noexcept {
   FillSnapshot(now_ns, rs, ws);
   if (mode == ServoMode::kActive) {
-    stats_.tracking_error_sum_rad += snap_.tracking_error_rad;
-    stats_.tracking_error_max_rad = std::max(stats_.tracking_error_max_rad, snap_.tracking_error_rad);
+    const double error_rad = snap_.joint_state.tracking_error_rad;
+    stats_.tracking_error_sum_rad += error_rad;
+    stats_.tracking_error_max_rad = std::max(stats_.tracking_error_max_rad, error_rad);
   }
   if (sink_ != nullptr && !sink_->Push(snap_)) ++stats_.telemetry_drops;
   DrainEvents();
@@ -367,106 +367,139 @@ void ServoLoop::DrainEvents() noexcept {
   }
 }
 
+// Writes this cycle's values into the snapshot's messages (utime, cycle and the health message's
+// telemetry counters are the telemetry thread's to set).
 void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept {
   TelemetrySnapshot& s = snap_;
   const auto& image = hal_.image();
+  const auto mode = static_cast<std::int8_t>(safety_.mode());
+  const auto controller = static_cast<std::int8_t>(controller_->kind());
   s.cycle = cycle_;
   s.time_ns = now_ns;
-  s.reference_time_s = sequencer_.reference_time_s();
-  s.mode = safety_.mode();
-  s.controller = controller_->kind();
+
+  hyq_lcm::lcmt_hyq_joint_state& js = s.joint_state;
+  hyq_lcm::lcmt_hyq_joint_torque& jt = s.joint_torque;
+  js.mode = mode;
+  js.reference_time_s = sequencer_.reference_time_s();
+  jt.mode = mode;
+  jt.controller = controller;
   double err2 = 0.0;
   for (std::size_t j = 0; j < kNumJoints; ++j) {
     const auto& in = image.joints[j];
     const int ji = static_cast<int>(j);
-    s.q_rad[j] = in.position_rad;
-    s.qd_rad_s[j] = in.velocity_rad_s;
-    s.tau_measured_Nm[j] = in.torque_Nm;
-    s.q_ref_rad[j] = joint_ref_.q(ji);
-    s.qd_ref_rad_s[j] = joint_ref_.qd(ji);
-    s.tau_command_Nm[j] = tau_(ji);
-    s.input_status[j] = static_cast<std::uint8_t>(in.status);
+    js.q_rad[j] = in.position_rad;
+    js.qd_rad_s[j] = in.velocity_rad_s;
+    js.tau_measured_Nm[j] = in.torque_Nm;
+    js.q_ref_rad[j] = joint_ref_.q(ji);
+    js.qd_ref_rad_s[j] = joint_ref_.qd(ji);
+    js.input_status[j] = static_cast<std::int8_t>(in.status);
+    jt.tau_command_Nm[j] = tau_(ji);
     const double e = joint_ref_.q(ji) - in.position_rad;
     err2 += std::isfinite(e) ? e * e : 0.0;
   }
-  s.tracking_error_rad = std::sqrt(err2);
+  js.tracking_error_rad = std::sqrt(err2);
+
+  hyq_lcm::lcmt_hyq_base_state& base = s.base_state;
   const VectorQ& q = estimator_.q();
   const VectorV& v = estimator_.v();
   for (int i = 0; i < 3; ++i) {
-    s.base_position_m[static_cast<std::size_t>(i)] = q(i);
-    s.base_velocity_m_s[static_cast<std::size_t>(i)] = v(i);
-    s.base_angular_velocity_rad_s[static_cast<std::size_t>(i)] = v(3 + i);
+    base.position_m[i] = q(i);
+    base.velocity_m_s[i] = v(i);
+    base.angular_velocity_rad_s[i] = v(3 + i);
   }
-  for (int i = 0; i < 4; ++i) s.base_orientation_wxyz[static_cast<std::size_t>(i)] = q(3 + i);
+  for (int i = 0; i < 4; ++i) base.orientation_wxyz[i] = q(3 + i);
+
+  hyq_lcm::lcmt_hyq_contact_state& c = s.contact;
+  hyq_lcm::lcmt_hyq_friction_estimate& fe = s.friction;
   const bool active = safety_.mode() == ServoMode::kActive;
+  c.controller = controller;
+  fe.enabled = config_.friction.enabled;
   for (std::size_t f = 0; f < kNumFeet; ++f) {
-    s.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
-    s.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
-    s.mu[f] = id_env_.mu[f];
-    const FootFriction& fr = friction_.feet()[f];
-    s.mu_upper[f] = env_.mu[f];
-    s.mu_estimate[f] = fr.mu;
-    s.mu_confidence[f] = fr.confidence;
-    s.force_ratio[f] = fr.ratio;
-    s.slip_speed_m_s[f] = fr.slip_speed_m_s;
-    for (int i = 0; i < 3; ++i) s.foot_force_N[f][static_cast<std::size_t>(i)] = fr.force_W(i);
-    s.foot_loaded[f] = fr.loaded ? 1 : 0;
-    s.foot_slipping[f] = fr.slipping ? 1 : 0;
-    s.slips[f] = fr.slips;
-    s.footfalls[f] = fr.footfalls;
+    c.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
+    c.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
+    c.mu[f] = id_env_.mu[f];
     const auto& imp = out_.impulses[f];
     const Eigen::Vector3d F =
         active && imp.active ? Eigen::Vector3d((imp.normal_Ns * Eigen::Vector3d::UnitZ() +
                                                 imp.tangent_Ns_W) / dt_)
                              : Eigen::Vector3d::Zero();
-    for (int i = 0; i < 3; ++i) s.contact_force_N[f][static_cast<std::size_t>(i)] = F(i);
+    for (int i = 0; i < 3; ++i) c.contact_force_N[f][i] = F(i);
+    const FootFriction& fr = friction_.feet()[f];
+    fe.mu_estimate[f] = fr.mu;
+    fe.mu_control[f] = id_env_.mu[f];
+    fe.mu_upper[f] = env_.mu[f];
+    fe.confidence[f] = fr.confidence;
+    fe.force_ratio[f] = fr.ratio;
+    fe.slip_speed_m_s[f] = fr.slip_speed_m_s;
+    for (int i = 0; i < 3; ++i) fe.force_N[f][i] = fr.force_W(i);
+    fe.loaded[f] = fr.loaded ? 1 : 0;
+    fe.slipping[f] = fr.slipping ? 1 : 0;
+    fe.slips[f] = static_cast<std::int32_t>(fr.slips);
+    fe.footfalls[f] = static_cast<std::int32_t>(fr.footfalls);
   }
-  s.friction_enabled = config_.friction.enabled;
-  s.disturbance_enabled = config_.disturbance.enabled;
-  s.disturbance_held = !active || !config_.disturbance.enabled || disturbance_.held();
+  c.stage1_status = static_cast<std::int8_t>(out_.stage1.status);
+  c.stage2_status = static_cast<std::int8_t>(out_.stage2.status);
+  c.fallback = static_cast<std::int8_t>(out_.fallback);
+  c.stage1_iterations = out_.stage1.iterations;
+  c.stage2_iterations = out_.stage2.iterations;
+  c.stage1_solve_us = 1e6 * out_.stage1.solve_time_s;
+  c.stage2_solve_us = 1e6 * out_.stage2.solve_time_s;
+
+  hyq_lcm::lcmt_hyq_disturbance_estimate& d = s.disturbance;
+  d.enabled = config_.disturbance.enabled;
+  d.held = !active || !config_.disturbance.enabled || disturbance_.held();
   for (int i = 0; i < 3; ++i) {
-    s.disturbance_force_N[static_cast<std::size_t>(i)] = disturbance_.wrench()(i);
-    s.disturbance_torque_Nm[static_cast<std::size_t>(i)] = disturbance_.wrench()(3 + i);
+    d.force_N[i] = disturbance_.wrench()(i);
+    d.torque_Nm[i] = disturbance_.wrench()(3 + i);
   }
-  s.stage1_status = static_cast<std::uint8_t>(out_.stage1.status);
-  s.stage2_status = static_cast<std::uint8_t>(out_.stage2.status);
-  s.fallback = static_cast<std::uint8_t>(out_.fallback);
-  s.stage1_iterations = out_.stage1.iterations;
-  s.stage2_iterations = out_.stage2.iterations;
-  s.stage1_solve_us = 1e6 * out_.stage1.solve_time_s;
-  s.stage2_solve_us = 1e6 * out_.stage2.solve_time_s;
-  s.timing = timing_;
-  s.deadline_misses = stats_.deadline_misses;
-  s.consecutive_misses = stats_.consecutive_misses;
-  s.skipped_cycles = stats_.skipped_cycles;
+  d.payload_kg = -d.force_N[2] / 9.81;
+
+  hyq_lcm::lcmt_hyq_servo_timing& t = s.timing;
+  t.wakeup_latency_ns = timing_.wakeup_latency_ns;
+  t.read_ns = timing_.read_ns;
+  t.estimate_ns = timing_.estimate_ns;
+  t.reference_ns = timing_.reference_ns;
+  t.control_ns = timing_.control_ns;
+  t.safety_ns = timing_.safety_ns;
+  t.write_ns = timing_.write_ns;
+  t.total_ns = timing_.total_ns;
+  t.deadline_misses = static_cast<std::int64_t>(stats_.deadline_misses);
+  t.consecutive_misses = static_cast<std::int32_t>(stats_.consecutive_misses);
+  t.skipped_cycles = static_cast<std::int64_t>(stats_.skipped_cycles);
+
+  hyq_lcm::lcmt_hyq_health& h = s.health;
+  h.mode = mode;
+  h.hal_read_status = static_cast<std::int8_t>(rs);
+  h.hal_write_status = static_cast<std::int8_t>(ws);
+  const std::size_t num_buses = std::min<std::size_t>(hal_.num_buses(), kMaxBuses);
+  h.num_buses = static_cast<std::int8_t>(num_buses);
   std::size_t dev = 0;
-  for (std::size_t b = 0; b < hal_.num_buses() && b < kMaxBuses; ++b) {
-    const auto& c = hal_.bus(b).counters();
-    BusHealth& h = s.buses[b];
-    h.rx_frames = c.rx_frames;
-    h.tx_frames = c.tx_frames;
-    h.wkc_faults = c.wkc_faults;
-    h.missing = c.missing;
-    h.malformed = c.malformed;
-    h.error_frames = c.error_frames;
-    h.emcy = c.emcy;
-    h.bus_off = c.bus_off;
-    h.tx_failed = c.tx_failed;
-    h.driver_dropped = c.driver_dropped;
-    h.wkc_expected = hal_.bus(b).wkc().expected;
-    h.wkc_received = hal_.bus(b).wkc().received;
-    for (const auto& d : hal_.bus(b).devices()) {
+  for (std::size_t b = 0; b < num_buses; ++b) {
+    const auto& counters = hal_.bus(b).counters();
+    hyq_lcm::lcmt_hyq_bus_health& bh = h.buses[b];
+    bh.rx_frames = static_cast<std::int64_t>(counters.rx_frames);
+    bh.tx_frames = static_cast<std::int64_t>(counters.tx_frames);
+    bh.wkc_faults = static_cast<std::int64_t>(counters.wkc_faults);
+    bh.missing = static_cast<std::int64_t>(counters.missing);
+    bh.malformed = static_cast<std::int64_t>(counters.malformed);
+    bh.error_frames = static_cast<std::int64_t>(counters.error_frames);
+    bh.emcy = static_cast<std::int64_t>(counters.emcy);
+    bh.bus_off = static_cast<std::int64_t>(counters.bus_off);
+    bh.tx_failed = static_cast<std::int64_t>(counters.tx_failed);
+    bh.driver_dropped = static_cast<std::int64_t>(counters.driver_dropped);
+    bh.wkc_expected = static_cast<std::int32_t>(hal_.bus(b).wkc().expected);
+    bh.wkc_received = static_cast<std::int32_t>(hal_.bus(b).wkc().received);
+    for (const auto& device : hal_.bus(b).devices()) {
       if (dev >= kMaxDevices) break;
-      s.held_inputs[dev] = d.counters.held;
-      s.max_held_in_row[dev] = d.counters.max_held_in_row;
-      s.device_state[dev++] = static_cast<std::uint8_t>(d.state);
+      h.device_state[dev] = static_cast<std::int8_t>(device.state);
+      h.held_inputs[dev] = static_cast<std::int64_t>(device.counters.held);
+      h.max_held_in_row[dev] = static_cast<std::int32_t>(device.counters.max_held_in_row);
+      ++dev;
     }
   }
-  s.max_held_cycles = static_cast<std::uint32_t>(config_.hal.timing.max_held_cycles);
-  s.num_devices = static_cast<std::uint8_t>(dev);
-  s.hal_read_status = static_cast<std::uint8_t>(rs);
-  s.hal_write_status = static_cast<std::uint8_t>(ws);
-  s.events = safety_.events();
+  h.num_devices = static_cast<std::int8_t>(dev);
+  h.max_held_cycles = static_cast<std::int16_t>(std::min(config_.hal.timing.max_held_cycles, 32767));
+  h.safety_events = static_cast<std::int64_t>(safety_.events());
 }
 
 const char* ToString(ClockMode m) noexcept {

@@ -64,7 +64,7 @@ TEST(ServoLoop, ControllerTorquesReachTheBoards) {
   // standing still: the two-stage ID holds the robot up, so the knees and hips carry torque
   double sum = 0.0;
   for (int j = 0; j < 12; ++j) {
-    const double sent = rig.sink.last.tau_command_Nm[static_cast<std::size_t>(j)];
+    const double sent = rig.sink.last.joint_torque.tau_command_Nm[j];
     // the board applies what the loop commanded one cycle earlier, to the mN·m
     EXPECT_TRUE(std::isfinite(sent));
     sum += std::abs(rig.emu->torque_setpoint_Nm(j));
@@ -73,11 +73,35 @@ TEST(ServoLoop, ControllerTorquesReachTheBoards) {
   for (int leg = 0; leg < 4; ++leg)
     EXPECT_GT(std::abs(rig.emu->torque_setpoint_Nm(3 * leg + 2)), 5.0) << "knee of leg " << leg;
   // the last command the boards applied equals the loop's command of the previous cycle
-  const auto before = rig.sink.last.tau_command_Nm;
+  const hyq_lcm::lcmt_hyq_joint_torque before = rig.sink.last.joint_torque;
   rig.Step();
   for (int j = 0; j < 12; ++j)
-    EXPECT_NEAR(rig.emu->torque_setpoint_Nm(j), before[static_cast<std::size_t>(j)], 1e-3) << j;
+    EXPECT_NEAR(rig.emu->torque_setpoint_Nm(j), before.tau_command_Nm[j], 1e-3) << j;
   EXPECT_GT(rig.sink.snapshots, 50u);
+}
+
+// The health message carries the HAL's counters of every bus and the state of every device.
+TEST(ServoLoop, HealthCarriesTheHalCounters) {
+  ServoRig rig(ActiveConfig());
+  rig.BringUpAndStart();
+  rig.Steps(20);
+  const hyq_lcm::lcmt_hyq_health& h = rig.sink.last.health;
+  ASSERT_EQ(h.num_buses, static_cast<int>(rig.hal->num_buses()));
+  int devices = 0;
+  for (std::size_t b = 0; b < rig.hal->num_buses(); ++b) {
+    const auto& c = rig.hal->bus(b).counters();
+    const hyq_lcm::lcmt_hyq_bus_health& bh = h.buses[b];
+    EXPECT_GT(bh.rx_frames, 0) << b;
+    EXPECT_EQ(bh.rx_frames, static_cast<std::int64_t>(c.rx_frames)) << b;
+    EXPECT_EQ(bh.tx_frames, static_cast<std::int64_t>(c.tx_frames)) << b;
+    EXPECT_EQ(bh.missing, static_cast<std::int64_t>(c.missing)) << b;
+    EXPECT_EQ(bh.driver_dropped, static_cast<std::int64_t>(c.driver_dropped)) << b;
+    EXPECT_EQ(bh.wkc_expected, static_cast<std::int32_t>(rig.hal->bus(b).wkc().expected)) << b;
+    for (const auto& d : rig.hal->bus(b).devices())
+      EXPECT_EQ(h.device_state[devices++], static_cast<std::int8_t>(d.state));
+  }
+  EXPECT_EQ(h.num_devices, devices);
+  EXPECT_EQ(h.mode, static_cast<std::int8_t>(ServoMode::kActive));
 }
 
 // Injects a fault into an ACTIVE loop; returns how many cycles after the fault's inputs first
@@ -259,7 +283,7 @@ TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
   rig.sink.commands.push_back({.kind = ServoCommand::Kind::kSetController,
                                .controller = ControllerKind::kPid});
   rig.Steps(2);
-  EXPECT_DOUBLE_EQ(rig.sink.last.mu[2], 0.3);
+  EXPECT_DOUBLE_EQ(rig.sink.last.contact.mu[2], 0.3);
   EXPECT_EQ(rig.loop->controller().kind(), ControllerKind::kPid);
   rig.sink.commands.push_back({.kind = ServoCommand::Kind::kEnable});
   rig.Steps(2);
@@ -345,9 +369,9 @@ TEST(ServoLoop, StandsUpAfterEnableAndSitsDownBeforeTheStop) {
   ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
   // standing up: the reference's clock has not started
   rig.Steps(300);
-  EXPECT_DOUBLE_EQ(rig.sink.last.reference_time_s, 0.0);
+  EXPECT_DOUBLE_EQ(rig.sink.last.joint_state.reference_time_s, 0.0);
   rig.Steps(400);
-  EXPECT_GT(rig.sink.last.reference_time_s, 0.1);
+  EXPECT_GT(rig.sink.last.joint_state.reference_time_s, 0.1);
   rig.sink.events.clear();
   rig.loop->RequestStop();
   int n = 0;
