@@ -13,6 +13,7 @@
 
 #include "dynamics/kinematics.h"
 #include "dynamics/urdf_loader.h"
+#include "tools/cli/command_line.h"
 
 namespace {
 
@@ -40,11 +41,6 @@ constexpr std::string_view kUsage =
     "  --help          this text\n"
     "\n"
     "exit status: 0 done, 1 a malformed line (named on stderr), 2 usage, model or I/O error\n";
-
-[[noreturn]] void UsageError(const std::string& msg) {
-  std::fprintf(stderr, "hyq-kinematics: %s\n\n%s", msg.c_str(), kUsage.data());
-  std::exit(2);
-}
 
 [[noreturn]] void Fail(int status, const std::string& msg) {
   std::fprintf(stderr, "hyq-kinematics: %s\n", msg.c_str());
@@ -76,21 +72,16 @@ struct Options {
 Options ParseOptions(int argc, char** argv) {
   Options o;
   bool have_input = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::fputs(kUsage.data(), stdout);
-      std::exit(0);
-    }
-    if (arg == "--orientation") {
-      o.orientation = true;
-    } else if (arg == "--urdf" && i + 1 < argc) {
-      o.urdf = argv[++i];
-    } else if ((arg == "-" || arg.substr(0, 1) != "-") && !have_input) {
-      o.input = arg;
+  hyq::cli::CommandLine cl(argc, argv, "hyq-kinematics", std::string(kUsage));
+  while (cl.Next()) {
+    if (cl.Flag("--orientation")) o.orientation = true;
+    else if (cl.Flag("--urdf")) o.urdf = cl.Value();
+    else if (cl.IsOption()) cl.Unknown();
+    else if (!have_input) {
+      o.input = cl.arg();
       have_input = true;
     } else {
-      UsageError("unknown or incomplete option '" + std::string(arg) + "'");
+      cl.Bad("CSV", "one input file", cl.arg());
     }
   }
   return o;
