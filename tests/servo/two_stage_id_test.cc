@@ -142,13 +142,20 @@ IdInput Projected(IdInput in) {
   return in;
 }
 
+// The same problem solved by an ID with settings `sa` into *a and one with `sb` into *b (each
+// asserted to solve).
+void SolveWithBoth(const TwoStageSettings& sa, const TwoStageSettings& sb, const CycleDynamics& d,
+                   const IdInput& in, IdOutput* a, IdOutput* b) {
+  TwoStageId id_a(sa), id_b(sb);
+  ASSERT_EQ(id_a.Solve(HyqModel(), d, in, a), IdStatus::kOk) << Describe(*a);
+  ASSERT_EQ(id_b.Solve(HyqModel(), d, in, b), IdStatus::kOk) << Describe(*b);
+}
+
 // Stage I alone and both stages with (9) on the same problem (each asserted to solve).
 void SolveBothStages(const CycleDynamics& d, const IdInput& in, IdOutput* o1, IdOutput* o2) {
   TwoStageSettings s1;
   s1.stage2 = false;
-  TwoStageId stage1(s1), both(WithEq9());
-  ASSERT_EQ(stage1.Solve(HyqModel(), d, in, o1), IdStatus::kOk) << Describe(*o1);
-  ASSERT_EQ(both.Solve(HyqModel(), d, in, o2), IdStatus::kOk) << Describe(*o2);
+  SolveWithBoth(s1, WithEq9(), d, in, o1, o2);
 }
 
 // Fig. 1: contact conditions 2 → 4 → 2 → 4 → 2 feet while the body sways with all feet kept
@@ -323,10 +330,8 @@ TEST_F(TwoStage, VelocityConsistentQddLeavesStickingFeetAtRest) {
     }
     TwoStageSettings off;
     off.velocity_consistent_qdd = false;
-    TwoStageId with, without(off);
     IdOutput o_on, o_off;
-    ASSERT_EQ(with.Solve(HyqModel(), *d, in, &o_on), IdStatus::kOk) << Describe(o_on);
-    ASSERT_EQ(without.Solve(HyqModel(), *d, in, &o_off), IdStatus::kOk) << Describe(o_off);
+    ASSERT_NO_FATAL_FAILURE(SolveWithBoth({}, off, *d, in, &o_on, &o_off)) << "trial " << trial;
     // the ID's joint rows follow the projected q̈ (5)
     EXPECT_TRUE(NearRel(VectorJ(o_on.v_star.tail<12>()), VectorJ(in.v.tail<12>() + in.dt * once),
                         1e-8)) << "trial " << trial;
@@ -375,12 +380,8 @@ TEST_F(TwoStage, StageTwoKeepsEnergyAndNeverRaisesTorque) {
   for (int trial = 0; trial < 40; ++trial) {
     const IdInput in = Consistent(trial % 2 ? kAll : kLfRh);
     const auto d = Dyn(in);
-    TwoStageSettings s1;
-    s1.stage2 = false;
-    TwoStageId stage1(s1), both;
     IdOutput o1, o2;
-    ASSERT_EQ(stage1.Solve(HyqModel(), *d, in, &o1), IdStatus::kOk) << Describe(o1);
-    ASSERT_EQ(both.Solve(HyqModel(), *d, in, &o2), IdStatus::kOk) << Describe(o2);
+    ASSERT_NO_FATAL_FAILURE(SolveBothStages(*d, in, &o1, &o2)) << "trial " << trial;
     // (9): the kinetic energy after the step, from (6) with Stage II's τ and impulses
     const VectorV v2 = VStarFromMomentum(*d, in, o2);
     const double ke2 = 0.5 * v2.dot(d->M * v2);
@@ -580,10 +581,8 @@ TEST_F(TwoStage, MeasuredContactVelocityIsTreatedAsAnImpact) {
   const auto d = Dyn(in);
   TwoStageSettings off;
   off.project_contact_velocity = false;
-  TwoStageId projected, raw(off);
-  IdOutput a, b;
-  ASSERT_EQ(projected.Solve(HyqModel(), *d, in, &a), IdStatus::kOk) << Describe(a);
-  ASSERT_EQ(raw.Solve(HyqModel(), *d, in, &b), IdStatus::kOk) << Describe(b);
+  IdOutput a, b;  // projected, raw
+  ASSERT_NO_FATAL_FAILURE(SolveWithBoth({}, off, *d, in, &a, &b));
   double na = 0, nb = 0;
   for (int f = 0; f < 4; ++f) {
     na += a.impulses[f].normal_Ns;
