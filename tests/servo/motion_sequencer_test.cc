@@ -26,6 +26,8 @@ struct Rig {
     in.active = true;
     in.q_rad = joints.q;
   }
+  // an enable with the joints measured at the standing posture of base height h
+  void EnableStandingAt(double h);
   // one ACTIVE cycle: the reference stage, then the end of the cycle
   MotionRequests Cycle() {
     EXPECT_TRUE(seq.Sample(in));
@@ -63,6 +65,11 @@ dynamics::VectorJ StandingAt(double h) {
   return s.joints.q;
 }
 
+void Rig::EnableStandingAt(double h) {
+  in.q_rad = StandingAt(h);
+  seq.Enable(in);
+}
+
 TEST(MotionSequencer, RestsAndHoldsStillOutsideActive) {
   Rig rig(NoMoves());
   EXPECT_EQ(rig.seq.phase(), MotionPhase::kRest);
@@ -85,8 +92,7 @@ TEST(MotionSequencer, RestsAndHoldsStillOutsideActive) {
 TEST(MotionSequencer, EnableRampRunsFromTheMeasuredPostureToTheReference) {
   Rig rig(NoMoves());
   const dynamics::VectorJ q_ref = rig.joints.q;
-  rig.in.q_rad = StandingAt(0.45);
-  rig.seq.Enable(rig.in);
+  rig.EnableStandingAt(0.45);
   EXPECT_EQ(rig.seq.phase(), MotionPhase::kReference);
   EXPECT_EQ(rig.seq.reference_time_s(), 0.0);
   ASSERT_TRUE(rig.seq.Sample(rig.in));
@@ -120,8 +126,7 @@ TEST(MotionSequencer, StandUpThenTheReferenceRampsFromWhereItEnded) {
   c.stand_up_s = 0.3;
   Rig rig(c);
   const double standing_m = rig.sample.base.p_W.z();
-  rig.in.q_rad = StandingAt(0.40);
-  rig.seq.Enable(rig.in);
+  rig.EnableStandingAt(0.40);
   EXPECT_EQ(rig.seq.phase(), MotionPhase::kStandUp);
   EXPECT_STREQ(ToString(rig.seq.phase()), "stand-up");
   int cycles = 0;
@@ -146,8 +151,7 @@ TEST(MotionSequencer, SitDownDuringTheStandUpStartsAtOnce) {
   c.stand_up_s = 0.3;
   c.sit_down_s = 0.2;
   Rig rig(c);
-  rig.in.q_rad = StandingAt(0.40);
-  rig.seq.Enable(rig.in);
+  rig.EnableStandingAt(0.40);
   for (int k = 0; k < 100; ++k) (void)rig.Cycle();
   rig.in.q_rad = rig.joints.q;
   const MotionRequests r = rig.seq.RequestSitDown(SitDownCause::kDisable, rig.in);
@@ -309,8 +313,7 @@ TEST(MotionSequencer, DurationStopCountsReferenceTime) {
   c.stand_up_s = 0.1;
   c.duration_s = 0.2;
   Rig rig(c);
-  rig.in.q_rad = StandingAt(0.45);
-  rig.seq.Enable(rig.in);
+  rig.EnableStandingAt(0.45);
   MotionRequests r;
   const int n = rig.CyclesUntilRequest(2000, &r);
   ASSERT_TRUE(r.duration_over);
