@@ -21,19 +21,12 @@
 #include "tests/drivers/test_util.h"
 #include "tests/support/no_heap_guard.h"
 
-namespace hyq::drivers {
+namespace hyq::drivers::testing {
 namespace {
 
 using hal::BusState;
 using hal::CanFrame;
 using hal::CanStatus;
-using testing::Classic;
-using testing::Drain;
-using testing::Error;
-using testing::Fd;
-using testing::ReceiveN;
-using testing::Remote;
-using testing::SameFrame;
 
 bool FdMode() {
   const char* m = std::getenv("HYQ_VCAN_MODE");
@@ -269,4 +262,4 @@ TEST(SocketCan, CanUtilsCandumpRecordsUsAndCanplayerPlaysOurLog) {
 }
 
 }  // namespace
-}  // namespace hyq::drivers
+}  // namespace hyq::drivers::testing
