@@ -146,10 +146,24 @@ relax_deadline() {
   printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$1"
 }
 
+# servo_config FILE HAL [SED_ARG...]: writes the shipped simulation configuration to FILE with
+# absolute paths, the URDF's and HAL's (the HAL configuration to use), edited further by the
+# extra sed arguments (-e EXPRESSION ...)
+servo_config() {
+  local file=$1 hal=$2
+  shift 2
+  sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $hal|" "$@" \
+      "$here/config/hyq_servo_sim.yaml" > "$file"
+}
+
+# The first lines of a script run under unshare -n: the loopback up, carrying the multicast buses.
+netns_script_head='#!/bin/bash
+set -u
+ip link set lo up; ip route add 224.0.0.0/4 dev lo'
+
 # The shipped simulation configuration with the deadline policy relaxed; prints its path.
 relaxed_deadline_config() {
-  sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
-      "$here/config/hyq_servo_sim.yaml" > "$out/relaxed_servo.yaml"
+  servo_config "$out/relaxed_servo.yaml" "$here/config/hyq_hal.yaml"
   relax_deadline "$out/relaxed_servo.yaml"
   echo "$out/relaxed_servo.yaml"
 }
@@ -433,14 +447,11 @@ PY
     cmd="$build/tools/hyq-command/hyq-command"
     "$cmd" --generate-key "$out/robot.key" >/dev/null || fail "hyq-command --generate-key"
     "$cmd" --generate-key "$out/other.key" >/dev/null || fail "hyq-command --generate-key"
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
-        -e "s|^  auto_enable: .*|  auto_enable: false|" "$here/config/hyq_servo_sim.yaml" > "$out/servo.yaml"
+    servo_config "$out/servo.yaml" "$here/config/hyq_hal.yaml" -e "s|^  auto_enable: .*|  auto_enable: false|"
     # the deadline policy relaxed, as for the faults: this run checks the command channel
     relax_deadline "$out/servo.yaml"
     cat > "$out/commands.sh" <<EOS
-#!/bin/bash
-set -u
-ip link set lo up; ip route add 224.0.0.0/4 dev lo
+$netns_script_head
 "$build/tools/hyq-sim/hyq-sim" --mode lockstep --mu 0.1 --summary "$out/sim.json" --quiet 2>"$out/sim.log" &
 sim=\$!
 sleep 0.2
@@ -471,14 +482,11 @@ EOS
   steer)
     cmd="$build/tools/hyq-command/hyq-command"
     "$cmd" --generate-key "$out/robot.key" >/dev/null || fail "hyq-command --generate-key"
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
-        "$here/config/hyq_servo_sim.yaml" > "$out/servo.yaml"
+    servo_config "$out/servo.yaml" "$here/config/hyq_hal.yaml"
     # the deadline policy relaxed, as for the faults: this run checks where the robot goes
     relax_deadline "$out/servo.yaml"
     cat > "$out/steer.sh" <<EOS
-#!/bin/bash
-set -u
-ip link set lo up; ip route add 224.0.0.0/4 dev lo
+$netns_script_head
 "$build/tools/hyq-sim/hyq-sim" --mode lockstep --mu 0.8 --summary "$out/sim.json" --truth "$out/truth.csv" --quiet 2>"$out/sim.log" &
 sim=\$!
 sleep 0.2
@@ -527,13 +535,10 @@ EOS
     # on a shared 2-core machine (a daemon that stopped on its own would leave nothing to test)
     # and the late-answer tolerances too (hyq-sim steps on SCHED_OTHER beside it)
     sed -e 's|^  max_held_cycles: .*|  max_held_cycles: 200|' "$here/config/hyq_hal.yaml" > "$out/rt_hal.yaml"
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $out/rt_hal.yaml|" \
-        "$here/config/hyq_servo_sim.yaml" > "$out/rt_servo.yaml"
+    servo_config "$out/rt_servo.yaml" "$out/rt_hal.yaml"
     relax_deadline "$out/rt_servo.yaml"
     cat > "$out/kill9.sh" <<EOS
-#!/bin/bash
-set -u
-ip link set lo up; ip route add 224.0.0.0/4 dev lo
+$netns_script_head
 # the plant steps on its own clock: SCHED_FIFO below the servo thread (80), as hyq-sim's stepping
 # thread runs in real time, so that a busy machine (the suite beside two CPU hogs) does not
 # starve it (plain when chrt fails)
@@ -572,10 +577,9 @@ PY
     script="$out/in_vm.sh"
     # software-emulated CPU (TCG): a cycle takes milliseconds, so this run checks the SocketCAN
     # path, not timing: generous lock-step waits, the deadline policy off, the PID controller
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
+    servo_config "$out/vm_servo.yaml" "$here/config/hyq_hal.yaml" \
         -e 's|^  clock: lockstep .*|  clock: lockstep\n  lockstep_timeout_s: 5\n  lockstep_short_timeout_s: 1\n  lockstep_bringup_timeout_s: 600|' \
-        -e 's|^  kind: two_stage$|  kind: pid|' \
-        "$here/config/hyq_servo_sim.yaml" > "$out/vm_servo.yaml"
+        -e 's|^  kind: two_stage$|  kind: pid|'
     relax_deadline "$out/vm_servo.yaml"
     cat > "$script" <<EOS
 #!/bin/sh
