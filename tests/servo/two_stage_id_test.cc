@@ -151,11 +151,28 @@ void SolveWithBoth(const TwoStageSettings& sa, const TwoStageSettings& sb, const
   ASSERT_EQ(id_b.Solve(HyqModel(), d, in, b), IdStatus::kOk) << Describe(*b);
 }
 
+// Stage I alone.
+TwoStageSettings StageOneOnly() {
+  TwoStageSettings s;
+  s.stage2 = false;
+  return s;
+}
+
+// Stage I, or Stage II, given no iterations: it cannot finish, and the ID falls back.
+TwoStageSettings StageOneCannotFinish() {
+  TwoStageSettings s;
+  s.max_iterations = 0;
+  return s;
+}
+TwoStageSettings StageTwoCannotFinish() {
+  TwoStageSettings s;
+  s.stage2_max_iterations = 0;
+  return s;
+}
+
 // Stage I alone and both stages with (9) on the same problem (each asserted to solve).
 void SolveBothStages(const CycleDynamics& d, const IdInput& in, IdOutput* o1, IdOutput* o2) {
-  TwoStageSettings s1;
-  s1.stage2 = false;
-  SolveWithBoth(s1, WithEq9(), d, in, o1, o2);
+  SolveWithBoth(StageOneOnly(), WithEq9(), d, in, o1, o2);
 }
 
 // Fig. 1: contact conditions 2 → 4 → 2 → 4 → 2 feet while the body sways with all feet kept
@@ -695,13 +712,8 @@ TEST_F(TwoStage, FallbackChainIsCountedNeverThrown) {
   const IdInput in = Consistent(kAll);
   const auto d = Dyn(in);
   {  // Stage II cannot finish → Stage I's torque
-    TwoStageSettings s;
-    s.stage2_max_iterations = 0;
-    TwoStageId id(s), ref;
+    TwoStageId id(StageTwoCannotFinish()), stage1(StageOneOnly());
     IdOutput out, out1;
-    TwoStageSettings s1;
-    s1.stage2 = false;
-    TwoStageId stage1(s1);
     EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
     EXPECT_EQ(out.fallback, Fallback::kStage1Torque);
     EXPECT_EQ(id.counters().stage2_failed, 1u);
@@ -709,9 +721,7 @@ TEST_F(TwoStage, FallbackChainIsCountedNeverThrown) {
     EXPECT_TRUE(NearRel(out.tau_Nm, out1.tau_Nm, 1e-12));
   }
   {  // Stage I cannot finish → contact-free ID
-    TwoStageSettings s;
-    s.max_iterations = 0;
-    TwoStageId id(s);
+    TwoStageId id(StageOneCannotFinish());
     IdOutput out;
     EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
     EXPECT_EQ(out.fallback, Fallback::kContactFreeId);
@@ -748,9 +758,7 @@ TEST_F(TwoStage, FallbackTorqueIsClampedToTheEffortLimits) {
   const auto clamp = [&](const VectorJ& tau) { return VectorJ(tau.cwiseMax(-limit).cwiseMin(limit)); };
   const auto ratio = [&](const VectorJ& tau) { return tau.cwiseAbs().cwiseQuotient(limit).maxCoeff(); };
   {  // Stage I cannot finish → contact-free ID, clamped
-    TwoStageSettings s;
-    s.max_iterations = 0;
-    TwoStageId id(s);
+    TwoStageId id(StageOneCannotFinish());
     IdOutput out;
     EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
     EXPECT_EQ(out.fallback, Fallback::kContactFreeId);
@@ -763,10 +771,7 @@ TEST_F(TwoStage, FallbackTorqueIsClampedToTheEffortLimits) {
     std::printf("contact-free fallback: %.1f x the effort limit before the clamp\n", ratio(f_id));
   }
   {  // Stage II cannot finish → Stage I's torque, clamped
-    TwoStageSettings s, s1;
-    s.stage2_max_iterations = 0;
-    s1.stage2 = false;
-    TwoStageId id(s), stage1(s1);
+    TwoStageId id(StageTwoCannotFinish()), stage1(StageOneOnly());
     IdOutput out, out1;
     EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
     EXPECT_EQ(out.fallback, Fallback::kStage1Torque);
@@ -783,10 +788,7 @@ TEST_F(TwoStage, FallbackTorqueIsClampedToTheEffortLimits) {
   {  // a fallback within the limits is left as it is and not counted as clamped
     const IdInput ok = Consistent(kAll);
     const auto dok = Dyn(ok);
-    TwoStageSettings s, s1;
-    s.stage2_max_iterations = 0;
-    s1.stage2 = false;
-    TwoStageId id(s), stage1(s1);
+    TwoStageId id(StageTwoCannotFinish()), stage1(StageOneOnly());
     IdOutput out, out1;
     EXPECT_EQ(id.Solve(HyqModel(), *dok, ok, &out), IdStatus::kFallback);
     ASSERT_EQ(stage1.Solve(HyqModel(), *dok, ok, &out1), IdStatus::kOk) << Describe(out1);
