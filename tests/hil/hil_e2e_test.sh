@@ -146,15 +146,9 @@ relax_deadline() {
   printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$1"
 }
 
-# servo_config FILE HAL [SED_ARG...]: writes the shipped simulation configuration to FILE with
-# absolute paths, the URDF's and HAL's (the HAL configuration to use), edited further by the
-# extra sed arguments (-e EXPRESSION ...)
-servo_config() {
-  local file=$1 hal=$2
-  shift 2
-  sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $hal|" "$@" \
-      "$here/config/hyq_servo_sim.yaml" > "$file"
-}
+# servo_config FILE HAL [SED_ARG...]: the shipped simulation configuration, usable from FILE
+source "$here/tests/support/sim_servo_config.sh"
+servo_config() { sim_servo_config "$here" "$@"; }
 
 # The first lines of a script run under unshare -n: the loopback up, carrying the multicast buses.
 netns_script_head='#!/bin/bash

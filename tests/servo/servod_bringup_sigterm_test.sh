@@ -43,9 +43,9 @@ grep -q "bring-up aborted by a stop request" "$out/early.log" ||
   fail "$out/early.log" "no message naming the stop request"
 # and without a signal, the lock-step bring-up ends after its bound in wall time (set to 3 s
 # here), not after 3 s of simulated time at up to 200 ms of waiting per cycle (minutes)
-sed -e "s|^  urdf: .*|  urdf: $src/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $src/config/hyq_hal.yaml|" \
-    -e 's|^  clock: lockstep .*|  clock: lockstep\n  lockstep_bringup_timeout_s: 3|' \
-    "$src/config/hyq_servo_sim.yaml" > "$out/bringup3.yaml"
+source "$src/tests/support/sim_servo_config.sh"
+sim_servo_config "$src" "$out/bringup3.yaml" "$src/config/hyq_hal.yaml" \
+    -e 's|^  clock: lockstep .*|  clock: lockstep\n  lockstep_bringup_timeout_s: 3|'
 start=$(date +%s%N)
 "$servod" --config "$out/bringup3.yaml" --clock lockstep --no-telemetry --quiet 2>"$out/timeout.log"
 rc=$?
