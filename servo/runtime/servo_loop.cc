@@ -68,15 +68,19 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       estimator_(model, config.estimator, config.period_s()),
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
       posture_(std::make_unique<PostureMove>(model)),
-      controller_(std::make_unique<Controller>(model, ForClock(config.controller, config.clock))),
+      pipeline_(std::make_unique<ControlPipeline>(model, ForClock(config.controller, config.clock),
+                                                  config.friction, config.disturbance,
+                                                  config.period_s())),
+      controller_(&pipeline_->controller()),
+      friction_(pipeline_->friction()),
+      disturbance_(pipeline_->disturbance()),
+      id_env_(pipeline_->environment()),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
-      friction_(config.friction),
-      disturbance_(model, config.disturbance, config.period_s()),
       base_gains_(config.controller.feedback),
-      command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
+      command_targets_{&safety_, controller_, &env_, &base_gains_, &config_.controller.pid,
                        reference_.get(), config.safety.damp_on_bad_command} {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
-  id_env_ = env_;
+  pipeline_->HoldEnvironment(env_);
   reference_->Sample(0.0, &ref_);
   joint_ref_ = ref_.joints;
   snap_.num_buses = static_cast<std::uint8_t>(std::min<std::size_t>(hal.num_buses(), kMaxBuses));
@@ -223,8 +227,7 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
 
 void ServoLoop::EnterActive() noexcept {
   t_ref_ = 0.0;
-  controller_->Reset();  // no integral or warm start carried over from an earlier ACTIVE
-  disturbance_.Reset();
+  pipeline_->Reset();  // no integral, warm start or disturbance carried over from an earlier ACTIVE
   active_time_ = 0.0;
   for (int j = 0; j < kNumJoints; ++j)
     q0_(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
@@ -266,9 +269,7 @@ void ServoLoop::SampleReference() noexcept {
 void ServoLoop::RunController() noexcept {
   tau_.setZero();
   // outside ACTIVE the μ shown is the command's (or the last estimate below it)
-  for (std::size_t f = 0; f < kNumFeet; ++f)
-    id_env_.mu[f] = config_.friction.enabled ? std::min(friction_.feet()[f].mu_control, env_.mu[f])
-                                             : env_.mu[f];
+  pipeline_->HoldEnvironment(env_);
   if (safety_.mode() != ServoMode::kActive) return;
   if (const Fault f = CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) {
     safety_.Report(f);
@@ -280,18 +281,10 @@ void ServoLoop::RunController() noexcept {
     safety_.Report(f);
     return;
   }
-  EstimateFriction();
-  // the disturbance observer's trunk wrench corrects the model's h for this cycle's controller
-  // (h − d_b; issue 15), after the friction estimate took its forces from the nominal h
-  const bool correct = config_.disturbance.enabled;
-  if (correct) {
-    VectorJ tau_m;
-    const auto& joints = hal_.image().joints;
-    for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
-    dyn_->bias.head<dynamics::kNumBaseDofs>() -= disturbance_.Update(*dyn_, v, tau_m);
-  }
-  id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, id_env_, dt_, &out_);
-  if (correct) dyn_->bias.head<dynamics::kNumBaseDofs>() += disturbance_.wrench();
+  VectorJ tau_m;
+  const auto& joints = hal_.image().joints;
+  for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+  id_status_ = pipeline_->Compute(*dyn_, q, v, tau_m, estimator_.stance(), joint_ref_, env_, &out_);
   if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
   if (FellBackOnDeadline(out_)) {
     ++stats_.controller_fallbacks_deadline;
@@ -304,21 +297,6 @@ void ServoLoop::RunController() noexcept {
     return;
   }
   tau_ = out_.tau_Nm;
-}
-
-// the μ Stage I gets: the configured or commanded one, or the estimate below it (issue 18)
-void ServoLoop::EstimateFriction() noexcept {
-  if (!config_.friction.enabled) return;
-  std::array<FootFrictionInput, kNumFeet> in;
-  const auto& joints = hal_.image().joints;
-  for (int f = 0; f < kNumFeet; ++f) {
-    const auto j = static_cast<std::size_t>(3 * f);
-    const Eigen::Vector3d tau(joints[j].torque_Nm, joints[j + 1].torque_Nm, joints[j + 2].torque_Nm);
-    in[static_cast<std::size_t>(f)] = MeasureFoot(model_, *dyn_, estimator_.v(), f,
-                                                  estimator_.stance()[static_cast<std::size_t>(f)], tau);
-  }
-  friction_.Update(in, env_.mu, dt_);
-  for (std::size_t f = 0; f < kNumFeet; ++f) id_env_.mu[f] = friction_.feet()[f].mu_control;
 }
 
 void ServoLoop::Damping() noexcept {

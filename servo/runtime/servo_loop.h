@@ -24,6 +24,7 @@
 #include "servo/reference/posture.h"
 #include "servo/reference/reference.h"
 #include "servo/runtime/command_rules.h"
+#include "servo/runtime/control_pipeline.h"
 #include "servo/runtime/deadline_monitor.h"
 #include "servo/runtime/input_checker.h"
 #include "servo/runtime/latency_histogram.h"
@@ -138,7 +139,6 @@ class ServoLoop {
   void PublishTelemetry(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws,
                         ServoMode mode) noexcept;
 
-  void EstimateFriction() noexcept;
   // ACTIVE's phases: stand-up, the reference, sit-down (then the deferred stop or disable)
   enum class Phase : std::uint8_t { kStandUp, kReference, kSitDown };
   enum class AfterSit : std::uint8_t { kStop, kDisable };
@@ -171,12 +171,15 @@ class ServoLoop {
   bool sit_pending_ = false;  // a sit-down waits for the gait to have every foot down
   double sit_wait_s_ = 0.0;
   double settled_s_ = 0.0;  // after a sit-down: how long every joint has been at rest
-  std::unique_ptr<Controller> controller_;
+  // friction estimate → disturbance observer → controller, shared with the simulated experiment;
+  // the references below name its parts for the stages that read them
+  std::unique_ptr<ControlPipeline> pipeline_;
+  Controller* controller_;
+  const FrictionEstimator& friction_;
+  const DisturbanceObserver& disturbance_;
+  const ContactEnvironment& id_env_;  // what the controller gets: env_, or the estimated μ
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
   ContactEnvironment env_;     // configured or commanded μ (the estimate's upper bound)
-  FrictionEstimator friction_;
-  DisturbanceObserver disturbance_;
-  ContactEnvironment id_env_;  // what the controller gets: env_, or the estimated μ
   FeedbackGains base_gains_;
   CommandTargets command_targets_;  // what a command may change (built once)
   ReferenceSample ref_;
