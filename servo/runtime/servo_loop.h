@@ -27,7 +27,7 @@
 #include "servo/runtime/control_pipeline.h"
 #include "servo/runtime/deadline_monitor.h"
 #include "servo/runtime/input_checker.h"
-#include "servo/runtime/latency_histogram.h"
+#include "hal/latency_histogram.h"
 #include "servo/runtime/safety_state_machine.h"
 #include "servo/runtime/servo_config.h"
 #include "servo/telemetry/telemetry_snapshot.h"
@@ -51,9 +51,9 @@ struct LoopStats {
   /// of those, the ones whose QP ran under half or over 1.25× its budget: the thread was stalled
   /// (DeadlineSpentByAStall, servo/control/id_types.h), not the QP slow
   std::uint64_t controller_fallbacks_deadline_stalled = 0;
-  LatencyHistogram wakeup;                    // wake-up latency
-  LatencyHistogram cycle;                     // read start .. write end
-  LatencyHistogram control;                   // dynamics + controller
+  hal::LatencyHistogram wakeup;               // wake-up latency
+  hal::LatencyHistogram cycle;                // read start .. write end
+  hal::LatencyHistogram control;              // dynamics + controller
   double tracking_error_sum_rad = 0.0;        // Σ ‖q_ref − q‖ over ACTIVE cycles
   double tracking_error_max_rad = 0.0;
   double qp_time_sum_us = 0.0, qp_time_max_us = 0.0;  // Stage I + II, ACTIVE cycles

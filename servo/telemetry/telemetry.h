@@ -2,7 +2,7 @@
 //
 // The servo thread hands one TelemetrySnapshot per cycle and SafetyEvents as they happen to
 // Push/PushEvent, and takes validated ServoCommands from PopCommand. Those three calls only touch
-// lock-free SPSC rings (servo/telemetry/spsc_ring.h): they never allocate, lock, block or throw, whatever
+// lock-free SPSC rings (hal/spsc_ring.h): they never allocate, lock, block or throw, whatever
 // the LCM side does. A telemetry thread (Start/Stop) empties the rings, fills preallocated LCM
 // messages (lcmtypes/, package hyq_lcm), publishes them, and, when the command channel is
 // enabled, receives commands and has them decoded, validated and rate-limited

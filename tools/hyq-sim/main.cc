@@ -1,4 +1,4 @@
-// hyq-sim: the simulated HyQ (issue #8). The MuJoCo plant behind HyQ's 12 actuator boards and
+// hyq-sim: the simulated HyQ. The MuJoCo plant behind HyQ's 12 actuator boards and
 // IMU (hyq::sim::SimulatedRobot) on virtual CAN (udp::43101..43104 for lf, rf, lh, rh by default)
 // or SocketCAN, so that the unmodified servo daemon drives it like the real robot.
 // docs/simulation.md describes the modes, the models, the faults and this command line.
@@ -31,8 +31,9 @@
 #include "dynamics/urdf_loader.h"
 #include "hal/clock.h"
 #include "servo/runtime/realtime_thread.h"
-#include "tools/sim/fault_spec.h"
-#include "tools/sim/simulated_robot.h"
+#include "sim/fault_spec.h"
+#include "sim/realtime_runner.h"
+#include "sim/simulated_robot.h"
 #include "hyq_lcm/lcmt_hyq_sim_truth.hpp"
 
 namespace {
@@ -66,7 +67,7 @@ struct Options {
   int bus_priority = 75;
   int bus_cpu = hyq::servo::kAutoCpu;
   std::vector<std::pair<double, double>> stalls;  // --stall T:MS (simulated s, wall ms)
-  // the plant profile (issue 15): the named one, then each factor's flag on top of it
+  // the plant profile: the named one, then each factor's flag on top of it
   std::string profile = "ideal";
   std::vector<std::function<void(hyq::sim::PlantProfile*)>> profile_overrides;
   std::string write_model;  // write the plant's MJCF (with its model error) here and exit
@@ -558,6 +559,7 @@ int Run(const Options& o) {
                    rt.locked ? "locked" : "not locked");
   }
   const double start_wall = WallS();
+  sim::RealtimeRunner runner(&robot);
   if (o.lockstep) (void)robot.RunLockStep(g_stop, o.duration_s);
   else {
     sim::BusThreadConfig bus;
@@ -584,7 +586,7 @@ int Run(const Options& o) {
                      bus_rt.fifo ? ("SCHED_FIFO " + std::to_string(bus_rtc.priority)).c_str() : "SCHED_OTHER",
                      bus_rt.pinned ? ("on CPU " + std::to_string(bus_rtc.cpu)).c_str() : "not pinned");
     };
-    (void)robot.RunRealTime(g_stop, o.duration_s, bus);
+    (void)runner.Run(g_stop, o.duration_s, bus);
   }
   const double end_wall = WallS();
   if (truth.is_open()) truth.close();
@@ -626,26 +628,26 @@ int Run(const Options& o) {
               : 0.0)
       << ",\n"
       << "  \"lockstep_forced_steps\": " << c.lockstep_forced << ",\n"
-      << "  \"realtime_overruns\": " << c.realtime_overruns << ",\n"
-      << "  \"late_steps\": " << c.late_steps << ",\n"
-      << "  \"dropped_steps\": " << c.dropped_steps << ",\n"
-      << "  \"stale_answers\": " << c.stale_answers << ",\n"
+      << "  \"realtime_overruns\": " << runner.counters().overruns << ",\n"
+      << "  \"late_steps\": " << runner.counters().late_steps << ",\n"
+      << "  \"dropped_steps\": " << runner.counters().dropped_steps << ",\n"
+      << "  \"stale_answers\": " << runner.bus().stale_answers() << ",\n"
       << "  \"superseded_syncs\": " << superseded_syncs << ",\n";
-    auto hist = [&](const char* key, const servo::LatencyHistogram& h) {
+    auto hist = [&](const char* key, const hal::LatencyHistogram& h) {
       s << "  \"" << key << "\": {\"count\": " << h.count() << ", \"p50_us\": "
         << 1e-3 * static_cast<double>(h.Percentile(0.5)) << ", \"p99_us\": "
         << 1e-3 * static_cast<double>(h.Percentile(0.99)) << ", \"p999_us\": "
         << 1e-3 * static_cast<double>(h.Percentile(0.999)) << ", \"max_us\": "
         << 1e-3 * static_cast<double>(h.max_ns()) << "},\n";
     };
-    hist("step_lateness", robot.step_lateness());
-    hist("step_time", robot.step_time());
-    hist("bus_gap", robot.bus_gap());
-    hist("bus_poll_time", robot.bus_poll_time());
+    hist("step_lateness", runner.step_lateness());
+    hist("step_time", runner.step_time());
+    hist("bus_gap", runner.bus().gap());
+    hist("bus_poll_time", runner.bus().poll_time());
     s << "  \"sync_phase_us\": ";
     if (o.robot.sync_phase_ns >= 0) s << 1e-3 * static_cast<double>(o.robot.sync_phase_ns) << ",\n";
     else s << "null,\n";
-    hist("sync_phase_error", robot.sync_phase_error());
+    hist("sync_phase_error", runner.sync_phase_error());
     s << "  \"stepping_thread\": {\"fifo\": " << (rt.fifo ? "true" : "false")
       << ", \"priority\": " << (rt.fifo ? rtc.priority : 0)
       << ", \"cpu\": " << (rt.pinned ? rtc.cpu : -1)

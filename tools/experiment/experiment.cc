@@ -1,4 +1,4 @@
-#include "tools/sim/experiment.h"
+#include "tools/experiment/experiment.h"
 
 #include <algorithm>
 #include <chrono>
@@ -12,7 +12,7 @@
 #include "dynamics/cycle_dynamics.h"
 #include "servo/runtime/control_pipeline.h"
 
-namespace hyq::sim {
+namespace hyq::experiment {
 
 servo::ControllerConfig StandardController(servo::ControllerKind kind) {
   servo::ControllerConfig c;
@@ -87,13 +87,13 @@ class SettlingTracker {
 
 ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentConfig& cfg,
                                const std::function<void(double)>& progress) {
-  PlantConfig pc;
+  sim::PlantConfig pc;
   pc.ground_mu = cfg.mu;
   pc.foot_mu = cfg.foot_mu;
   pc.patches = cfg.patches;
   cfg.profile.ApplyTo(&pc);
-  Plant plant(model, pc);
-  Actuation actuation(model, cfg.joints, cfg.profile, 0.0, 0.0, pc.timestep_s);
+  sim::Plant plant(model, pc);
+  sim::Actuation actuation(model, cfg.joints, cfg.profile, 0.0, 0.0, pc.timestep_s);
   servo::Reference ref = cfg.reference == servo::Reference::Kind::kTrot
                              ? servo::Reference::Trot(model, cfg.trot)
                          : cfg.reference == servo::Reference::Kind::kFigureEight
@@ -271,4 +271,4 @@ void WriteCsv(const ExperimentResult& r, const std::string& path) {
   }
 }
 
-}  // namespace hyq::sim
+}  // namespace hyq::experiment

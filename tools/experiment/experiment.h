@@ -1,5 +1,7 @@
-// One simulated experiment (docs/experiments.md): the MuJoCo HyQ, the controller the daemon runs
-// (servo/control/controller.h) with the true state, a reference (stand, trot, figure eight), 1 kHz.
+// One simulated experiment (docs/experiments.md): the MuJoCo HyQ (sim/plant.h), the daemon's
+// control pipeline (servo/runtime/control_pipeline.h) with the true state, a reference (stand,
+// trot, figure eight), 1 kHz. The μ the controller gets is assumed, the plant's own (an oracle)
+// or estimated online.
 #pragma once
 
 #include <functional>
@@ -10,10 +12,10 @@
 #include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
-#include "tools/sim/plant.h"
-#include "tools/sim/plant_profile.h"
+#include "sim/plant.h"
+#include "sim/plant_profile.h"
 
-namespace hyq::sim {
+namespace hyq::experiment {
 
 /// Where the controller's μ per foot comes from.
 enum class MuSource : std::uint8_t {
@@ -32,7 +34,7 @@ struct ExperimentConfig {
   double duration_s = 4.0;
   double mu = 1.0;                        // ground friction (plant and controller)
   std::array<double, servo::kNumFeet> foot_mu{-1, -1, -1, -1};
-  std::vector<GroundPatch> patches;       // the plant's friction patches (the controller's μ: mu_source)
+  std::vector<sim::GroundPatch> patches;  // the plant's friction patches (the controller's μ: mu_source)
   MuSource mu_source = MuSource::kAssumed;
   servo::FrictionEstimatorConfig friction;  // for kEstimated (enabled is implied)
   servo::ControllerConfig controller;
@@ -45,7 +47,7 @@ struct ExperimentConfig {
   /// How the plant differs from the model (default ideal: the controller's torque is
   /// applied as it is). The controller keeps the nominal model and the true state; its measured
   /// torques (the friction estimator's input) are the load cells', bias included.
-  PlantProfile profile;
+  sim::PlantProfile profile;
   /// The HAL's joint calibrations (lever arms), needed when profile.hydraulics.
   std::vector<hal::JointCalibration> joints;
 };
@@ -103,4 +105,4 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
 /// Writes the time series as CSV (one row per sample).
 void WriteCsv(const ExperimentResult& r, const std::string& path);
 
-}  // namespace hyq::sim
+}  // namespace hyq::experiment
