@@ -15,7 +15,7 @@
 #include "config/hal_config_loader.h"
 #include "config/yaml_reader.h"
 #include "hal/config_error.h"
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_channel.h"
 #include "servo/telemetry/lcm_url.h"
 
 namespace hyq::config {

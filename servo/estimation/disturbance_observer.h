@@ -1,4 +1,4 @@
-// Disturbance observer on the trunk (issue 15, docs/baselines.md): the wrench the model does not
+// Disturbance observer on the trunk (docs/baselines.md): the wrench the model does not
 // explain, measured from what HyQ senses (joint load cells, encoders, the base estimate), so that
 // a model-based controller can add it to its dynamics. A payload, errors of the links' masses and
 // centres of mass, and whatever else pushes on the trunk show up here.

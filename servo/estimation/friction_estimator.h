@@ -1,4 +1,4 @@
-// Online friction estimation per foot (issue 18; docs/friction_estimation.md): the μ the
+// Online friction estimation per foot (docs/friction_estimation.md): the μ the
 // two-stage ID's Stage I uses (Zapolsky et al. eq 30, μ_i c_N,i − Σ_k c_D,ik ≥ 0), measured from
 // what HyQ senses instead of assumed.
 //

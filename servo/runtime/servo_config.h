@@ -10,6 +10,7 @@
 
 #include "hal/hal_config.h"
 #include "servo/common/servo_types.h"
+#include "servo/command/command_config.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/estimator.h"
@@ -55,7 +56,7 @@ struct ServoConfig {
   ControllerConfig controller;
   std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};  // the upper bound with the estimator on
   FrictionEstimatorConfig friction;     // contact.friction_estimation
-  DisturbanceObserverConfig disturbance;  // controller.disturbance_observer (issue 15)
+  DisturbanceObserverConfig disturbance;  // controller.disturbance_observer
   Reference::Kind reference = Reference::Kind::kStand;
   TrotParams trot;
   FigureEightParams figure_eight;

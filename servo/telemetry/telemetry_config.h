@@ -1,13 +1,11 @@
 // The telemetry module's configuration (house style §1: declared here, filled from YAML by
-// config/servo_config_loader.cc, keys `telemetry.*` and `commands.*` of config/hyq_servo.yaml)
-// and the counters it keeps.
+// config/servo_config_loader.cc, keys `telemetry.*` of config/hyq_servo.yaml) and the counters it
+// keeps. The command channel's configuration is servo/command/command_config.h.
 #pragma once
 
-#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <string>
-#include <vector>
 
 namespace hyq::servo {
 
@@ -32,25 +30,6 @@ struct TelemetryConfig {
   std::size_t event_queue_capacity = 256;      // power of two, separate from snapshots
   std::size_t command_queue_capacity = 16;     // power of two
   int idle_wait_ms = 1;                  // the thread's wait when there is nothing to do
-};
-
-/// The operator command channel (lcmt_hyq_signed_command carrying an lcmt_hyq_command; see
-/// docs/security.md). Off unless enabled; when off, no subscription exists at all.
-struct CommandChannelConfig {
-  bool enabled = false;
-  std::string channel = "HYQ_COMMAND";
-  std::string key_file = "/etc/hyq/command.key";  // the robot's key (hyq-command --generate-key)
-  double max_age_ms = 1000.0;            // a command's utime within this of the robot's clock
-  std::size_t max_senders = 16;          // distinct senders whose last sequence is remembered
-  /// The interface the command group must be joined on (the routing table decides it for liblcm);
-  /// a different one is a start-up error. Empty: not checked.
-  std::string interface = "lo";
-  double max_rate_hz = 10.0;             // accepted commands at most this often; faster ones are refused
-  double mu_min = 0.0, mu_max = 2.0;     // accepted friction range (inclusive)
-  double gain_scale_min = 0.1, gain_scale_max = 2.0;  // accepted kp/kd multipliers (inclusive)
-  /// accepted |vx| m/s, |vy| m/s, |wz| rad/s of a set-velocity command (inclusive)
-  std::array<double, 3> max_velocity{0.4, 0.2, 0.5};
-  std::vector<std::string> allowed_controllers = {"pid", "noslip", "stage1", "two_stage", "pd_gravity"};
 };
 
 /// Counters since construction (each read atomically; together a snapshot, not a transaction).

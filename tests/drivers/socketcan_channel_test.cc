@@ -214,7 +214,7 @@ TEST(SocketCan, CanUtilsCandumpRecordsUsAndCanplayerPlaysOurLog) {
   const std::string theirs = dir + "/hyq_candump.log", ours = dir + "/hyq_ours.log";
 
   // candump -L records what our channel sends on vcan2; our reader reads its log. Waits on what
-  // candump wrote, not on a guessed time (issue 14: 800 ms was not enough in a busy VM): a marker
+  // candump wrote, not on a guessed time (a fixed wait is never enough on a busy machine): a marker
   // frame goes out until candump has recorded it (it is bound then), then the frames, until
   // they are all in its log (30 s guards).
   const CanFrame marker = Classic(0x7EE, {0xAA});

@@ -324,7 +324,7 @@ TEST(SimulatedRobot, RealTimeModeStepsAtTheCyclePeriodOnTheMonotonicClock) {
   EXPECT_TRUE(rig.robot->holding()) << "no master: still on its stand";
 }
 
-// Real time, the physics steps lock to the master's SYNC (sim/sync_phase_lock.h)
+// real time: the physics steps lock to the master's SYNC (sim/sync_phase_lock.h)
 TEST(SyncPhaseLock, ErrorIsTheDeadlinesOffsetFromSyncPlusPhaseWrappedIntoHalfAPeriod) {
   const sim::SyncPhaseLock lock{.period_ns = 1'000'000, .phase_ns = 500'000};
   const std::int64_t sync = 7'000'123'456;
@@ -371,7 +371,7 @@ TEST(SyncPhaseLock, OneLateSyncMovesTheDeadlinesLittleAndNoMasterLeavesThemFree)
   EXPECT_EQ(off.Correction(due + 300'000, due - P, due), 0);
 }
 
-// By default the robot starts in its resting crouch (feet on the ground under their
+// by default the robot starts in its resting crouch (feet on the ground under their
 // standing places, base at 0.40 m), which the daemon stands up from
 TEST(SimulatedRobot, StartsRestingInACrouchWithTheFeetOnTheGround) {
   LoopbackRig rig(sim::SimulatedRobotConfig{});

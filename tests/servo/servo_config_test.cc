@@ -13,7 +13,7 @@
 
 #include "config/servo_config_loader.h"
 #include "hal/config_error.h"
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_channel.h"
 
 namespace hyq {
 namespace {
@@ -113,7 +113,7 @@ TEST(ServoConfigYaml, EveryDeadlineKeyReachesDeadlineConfig) {
   EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").deadline.stop_in_lockstep);
 }
 
-// issue 17: the real-time read's wait for answers still owed, in periods (at most half of one),
+// the real-time read's wait for answers still owed, in periods (at most half of one),
 // so that it scales with the rate
 TEST(ServoConfigYaml, AnswerWaitIsAFractionOfThePeriod) {
   EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0.25\n").answer_wait_s, 250e-6);
@@ -153,7 +153,7 @@ TEST(ServoConfigYaml, EveryOperationKeyReachesServoConfig) {
   EXPECT_DOUBLE_EQ(shipped.sit_damping_max_s, 5.0);
 }
 
-// every controller's gains (issue 15: the tuned ones live in the shipped files)
+// every controller's gains (the tuned ones live in the shipped files)
 TEST(ServoConfigYaml, EveryGainKeyReachesControllerConfig) {
   const std::string robot = "robot:\n  urdf: robots/hyq.urdf\n  hal: hyq_hal.yaml\n";
   const servo::ServoConfig c = config::ParseServoConfig(robot + R"(controller:
@@ -199,7 +199,7 @@ telemetry:
   EXPECT_DOUBLE_EQ(robot_cc.swing_gain_scale, 1.0);
   EXPECT_DOUBLE_EQ(robot_cc.pid_swing_gain_scale, 1.0);
   EXPECT_DOUBLE_EQ(robot_cc.pdg_swing_gain_scale, 1.0);
-  // the simulation's: the IDs' swing legs at 0.3 (issue 17), the baselines' untouched
+  // the simulation's: the IDs' swing legs at 0.3, the baselines' untouched
   const servo::ControllerConfig sim_cc = config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").controller;
   EXPECT_DOUBLE_EQ(sim_cc.swing_gain_scale, 0.3);
   EXPECT_DOUBLE_EQ(sim_cc.pid_swing_gain_scale, 1.0);
@@ -368,7 +368,7 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
   const std::string twice = message("commands:\n  max_rate_hz: 5\n  enabled: true\n  max_rate_hz: 50\n");
   EXPECT_NE(twice.find("commands.max_rate_hz"), std::string::npos) << twice;
   EXPECT_NE(twice.find("a second time (first on line"), std::string::npos) << twice;
-  // one policy for late or missing inputs (#17): the safety layer's old key names the HAL's
+  // one policy for late or missing inputs: the safety layer's old key names the HAL's
   const std::string held = message("safety:\n  max_missing_cycles: 20\n");
   EXPECT_NE(held.find("safety.max_missing_cycles"), std::string::npos) << held;
   EXPECT_NE(held.find("timing.max_held_cycles"), std::string::npos) << held;

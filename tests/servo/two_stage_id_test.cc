@@ -615,12 +615,12 @@ TEST_F(TwoStage, ZeroStanceIsContactFreeId) {
   EXPECT_TRUE(NearRel(VectorJ(lhs.tail<12>()), out.tau_Nm, 1e-9));
 }
 
-// Hard random ID problems (issue 16): 1–4 stance feet, μ from 0 (frictionless) to 10, feet on
+// Hard random ID problems: 1–4 stance feet, μ from 0 (frictionless) to 10, feet on
 // slopes (normals tilted up to 30°), h from 0.5 to 4 ms, base twists up to 0.5 m/s and 1 rad/s,
 // base accelerations up to 5 m/s² and 5 rad/s², references consistent at the velocity or the
 // acceleration level plus up to ±10 rad/s² of feedback on every joint. Each is solved cold and,
 // in runs of 20 with the same stance and small changes, warm. Every answer is finite; a
-// fallback would be counted and its torque within the effort limits; issue 16 asks for none, and
+// fallback would be counted and its torque within the effort limits; the servo needs none, and
 // none there are (docs/inverse_dynamics.md, "Fallbacks").
 TEST_F(TwoStage, HardRandomProblemsSolveWithoutFallback) {
   // HYQ_ID_GENERATOR_SEED: another draw of the same generator (the test asserts on the default)
@@ -883,7 +883,7 @@ TEST(Pid, AntiWindupAndLimits) {
   EXPECT_DOUBLE_EQ(pid.integral()(0), 0.0);  // saturated along e: no integration
 }
 
-// the ID kinds' integral torque (issue 15): Ki_τ e dt per cycle, clamped at ±i_limit_τ, added
+// the ID kinds' integral torque: Ki_τ e dt per cycle, clamped at ±i_limit_τ, added
 // on top of ID + PD; cleared by Reset and by a change of controller
 TEST_F(TwoStage, IdIntegralGrowsToItsLimitAndResets) {
   ControllerConfig cfg;

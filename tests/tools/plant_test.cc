@@ -135,7 +135,7 @@ TEST(Plant, FrictionPerFoot) {
   EXPECT_LE(worst, 0.05 * 1.03);
 }
 
-// Friction patches: each foot takes the μ of the patch under it, at every step.
+// friction patches: each foot takes the μ of the patch under it, at every step.
 TEST(Plant, FrictionPatchesFollowTheFeet) {
   PlantConfig cfg;
   cfg.ground_mu = 1.0;

@@ -31,6 +31,9 @@ CommandKey LoadCommandKey(const std::string& path);
 /// @throws std::runtime_error naming the file.
 void GenerateCommandKey(const std::string& path);
 
+/// The longest sender name a signed command carries, in bytes.
+inline constexpr std::size_t kMaxSenderBytes = 63;
+
 /// The operator tools' defaults (hyq-command, hyq-teleop): the key file is $HYQ_COMMAND_KEY when
 /// set, else /etc/hyq/command.key; the sender is USER@HOST, cut to 63 bytes.
 std::string DefaultCommandKeyFile();

@@ -1,4 +1,4 @@
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
 
 #include <fcntl.h>
 #include <openssl/crypto.h>
@@ -15,23 +15,14 @@
 #include <stdexcept>
 
 #include "hyq_lcm/lcmt_hyq_signed_command.hpp"
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_channel.h"
 
 namespace hyq::servo {
 namespace {
 
 constexpr char kMacContext[] = "hyq_signed_command/1";  // sizeof includes its NUL
 constexpr std::size_t kMacSize = 32;
-constexpr std::size_t kMaxSender = 63;
 constexpr std::size_t kMaxCommand = 4096;
-
-std::int64_t ReadBigEndian(const std::uint8_t* p, int bytes) noexcept {
-  std::uint64_t v = 0;
-  for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
-  if (bytes < 8 && (v & (std::uint64_t{1} << (8 * bytes - 1))) != 0)
-    v |= ~std::uint64_t{0} << (8 * bytes);  // sign-extend
-  return static_cast<std::int64_t>(v);
-}
 
 // HMAC-SHA256(key, context NUL sender NUL command): the sender is bound to the command, and the
 // context keeps a MAC made for anything else from passing here.
@@ -130,8 +121,8 @@ void GenerateCommandKey(const std::string& path) {
 
 std::vector<std::uint8_t> SignEncodedCommand(const CommandKey& key, std::string_view sender,
                                              const std::uint8_t* command, std::size_t size) {
-  if (sender.empty() || sender.size() > kMaxSender || sender.find('\0') != std::string_view::npos)
-    throw std::invalid_argument("sender: expected 1.." + std::to_string(kMaxSender) +
+  if (sender.empty() || sender.size() > kMaxSenderBytes || sender.find('\0') != std::string_view::npos)
+    throw std::invalid_argument("sender: expected 1.." + std::to_string(kMaxSenderBytes) +
                                 " bytes without NUL, found " + std::to_string(sender.size()));
   if (size < 1 || size > kMaxCommand)
     throw std::invalid_argument("command: expected 1.." + std::to_string(kMaxCommand) +
@@ -156,7 +147,7 @@ std::string DefaultCommandSender() {
   char host[64] = "host";
   (void)gethostname(host, sizeof host - 1);
   std::string sender = std::string(user != nullptr && *user != '\0' ? user : "operator") + "@" + host;
-  if (sender.size() > 63) sender.resize(63);
+  if (sender.size() > kMaxSenderBytes) sender.resize(kMaxSenderBytes);
   return sender;
 }
 
@@ -185,16 +176,16 @@ AuthVerdict CommandAuthenticator::Check(const void* data, std::size_t size, std:
       return AuthVerdict::kUnsigned;
     }
     constexpr std::size_t kMin = 8 + 4 + 2 + 4 + 1 + kMacSize;
-    if (size < kMin || size > 8 + 4 + kMaxSender + 1 + 4 + kMaxCommand + kMacSize ||
+    if (size < kMin || size > 8 + 4 + kMaxSenderBytes + 1 + 4 + kMaxCommand + kMacSize ||
         ReadBigEndian(b, 8) != hyq_lcm::lcmt_hyq_signed_command::getHash()) {
       std::snprintf(why, n, "auth: expected lcmt_hyq_signed_command (%zu..%zu bytes), found %zu bytes",
-                    kMin, 8 + 4 + kMaxSender + 1 + 4 + kMaxCommand + kMacSize, size);
+                    kMin, 8 + 4 + kMaxSenderBytes + 1 + 4 + kMaxCommand + kMacSize, size);
       return AuthVerdict::kMalformed;
     }
     const std::int64_t sender_len = ReadBigEndian(b + 8, 4);  // includes the NUL
-    if (sender_len < 2 || sender_len > static_cast<std::int64_t>(kMaxSender + 1) ||
+    if (sender_len < 2 || sender_len > static_cast<std::int64_t>(kMaxSenderBytes + 1) ||
         static_cast<std::size_t>(12 + sender_len + 4 + kMacSize) > size) {
-      std::snprintf(why, n, "sender: expected 1..%zu bytes, found a length of %lld", kMaxSender,
+      std::snprintf(why, n, "sender: expected 1..%zu bytes, found a length of %lld", kMaxSenderBytes,
                     static_cast<long long>(sender_len - 1));
       return AuthVerdict::kMalformed;
     }

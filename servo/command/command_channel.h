@@ -12,9 +12,13 @@
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
 #include "servo/common/servo_types.h"
-#include "servo/telemetry/telemetry_config.h"
+#include "servo/command/command_config.h"
 
 namespace hyq::servo {
+
+/// The signed integer of `bytes` (1..8) bytes at `p` in LCM's wire order (big endian): the
+/// length fields the decoder and the authenticator check before trusting them.
+std::int64_t ReadBigEndian(const std::uint8_t* p, int bytes) noexcept;
 
 /// Decodes one datagram as lcmt_hyq_command without trusting its length fields: a negative
 /// foot count, a string length of 0 or beyond the datagram, a wrong hash or a short buffer is

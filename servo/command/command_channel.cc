@@ -1,4 +1,4 @@
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_channel.h"
 
 #include <algorithm>
 #include <cmath>
@@ -9,17 +9,14 @@
 #include <utility>
 
 namespace hyq::servo {
-namespace {
 
-std::int64_t ReadBigEndian(const unsigned char* p, int bytes) noexcept {
+std::int64_t ReadBigEndian(const std::uint8_t* p, int bytes) noexcept {
   std::uint64_t v = 0;
   for (int i = 0; i < bytes; ++i) v = (v << 8) | p[i];
   if (bytes < 8 && (v & (std::uint64_t{1} << (8 * bytes - 1))) != 0)
     v |= ~std::uint64_t{0} << (8 * bytes);  // sign-extend
   return static_cast<std::int64_t>(v);
 }
-
-}  // namespace
 
 bool DecodeCommand(const void* data, std::size_t size, hyq_lcm::lcmt_hyq_command* msg, char* why,
                    std::size_t n) noexcept {
