@@ -79,14 +79,10 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       pipeline_(std::make_unique<ControlPipeline>(model, ForClock(config.controller, config.clock),
                                                   config.friction, config.disturbance,
                                                   config.period_s())),
-      controller_(&pipeline_->controller()),
-      friction_(pipeline_->friction()),
-      disturbance_(pipeline_->disturbance()),
-      id_env_(pipeline_->environment()),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
       base_gains_(config.controller.feedback),
-      command_port_({&safety_, controller_, &env_, &base_gains_, &config_.controller.pid,
-                     reference_.get(), &est_status_}),
+      command_port_({&safety_, &pipeline_->controller(), &env_, &base_gains_,
+                     &config_.controller.pid, reference_.get(), &est_status_}),
       sequencer_(model, reference_.get(), MakeMotionConfig(config), config.period_s(), &ref_,
                  &joint_ref_) {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
@@ -253,7 +249,7 @@ void ServoLoop::RunController() noexcept {
     if (budget && DeadlineSpentByAStall(out_, std::chrono::duration<double>(*budget).count()))
       ++stats_.controller_fallbacks_deadline_stalled;
   }
-  if (const Fault f = CheckControllerOutput(controller_->kind(), id_status_, out_)) {
+  if (const Fault f = CheckControllerOutput(pipeline_->controller().kind(), id_status_, out_)) {
     safety_.Report(f);
     return;
   }
@@ -351,7 +347,7 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
   TelemetrySnapshot& s = snap_;
   const auto& image = hal_.image();
   const auto mode = static_cast<std::int8_t>(safety_.mode());
-  const auto controller = static_cast<std::int8_t>(controller_->kind());
+  const auto controller = static_cast<std::int8_t>(pipeline_->controller().kind());
   s.cycle = cycle_;
   s.time_ns = now_ns;
 
@@ -395,16 +391,16 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
   for (std::size_t f = 0; f < kNumFeet; ++f) {
     c.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
     c.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
-    c.mu[f] = id_env_.mu[f];
+    c.mu[f] = pipeline_->environment().mu[f];
     const auto& imp = out_.impulses[f];
     const Eigen::Vector3d F =
         active && imp.active ? Eigen::Vector3d((imp.normal_Ns * Eigen::Vector3d::UnitZ() +
                                                 imp.tangent_Ns_W) / dt_)
                              : Eigen::Vector3d::Zero();
     for (int i = 0; i < 3; ++i) c.contact_force_N[f][i] = F(i);
-    const FootFriction& fr = friction_.feet()[f];
+    const FootFriction& fr = pipeline_->friction().feet()[f];
     fe.mu_estimate[f] = fr.mu;
-    fe.mu_control[f] = id_env_.mu[f];
+    fe.mu_control[f] = pipeline_->environment().mu[f];
     fe.mu_upper[f] = env_.mu[f];
     fe.confidence[f] = fr.confidence;
     fe.force_ratio[f] = fr.ratio;
@@ -425,10 +421,10 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
 
   hyq_lcm::lcmt_hyq_disturbance_estimate& d = s.disturbance;
   d.enabled = config_.disturbance.enabled;
-  d.held = !active || !config_.disturbance.enabled || disturbance_.held();
+  d.held = !active || !config_.disturbance.enabled || pipeline_->disturbance().held();
   for (int i = 0; i < 3; ++i) {
-    d.force_N[i] = disturbance_.wrench()(i);
-    d.torque_Nm[i] = disturbance_.wrench()(3 + i);
+    d.force_N[i] = pipeline_->disturbance().wrench()(i);
+    d.torque_Nm[i] = pipeline_->disturbance().wrench()(3 + i);
   }
   d.payload_kg = -d.force_N[2] / 9.81;
 

@@ -104,10 +104,10 @@ class ServoLoop {
   double published_active_s() const noexcept { return published_active_s_.load(std::memory_order_relaxed); }
   const LoopStats& stats() const noexcept { return stats_; }
   const TelemetrySnapshot& snapshot() const noexcept { return snap_; }
-  const Controller& controller() const noexcept { return *controller_; }
+  const Controller& controller() const noexcept { return pipeline_->controller(); }
   const StateEstimator& estimator() const noexcept { return estimator_; }
-  const FrictionEstimator& friction() const noexcept { return friction_; }
-  const DisturbanceObserver& disturbance() const noexcept { return disturbance_; }
+  const FrictionEstimator& friction() const noexcept { return pipeline_->friction(); }
+  const DisturbanceObserver& disturbance() const noexcept { return pipeline_->disturbance(); }
   std::uint64_t events() const noexcept { return safety_.events(); }
   /// The run's first events (up to kFirstEvents) and last event, for the summary.
   std::span<const SafetyEvent> first_events() const noexcept {
@@ -165,12 +165,8 @@ class ServoLoop {
   StateEstimator estimator_;
   std::unique_ptr<Reference> reference_;
   // friction estimate → disturbance observer → controller, shared with the simulated experiment;
-  // the references below name its parts for the stages that read them
+  // its environment() is what the controller gets: env_, or the estimated μ below it
   std::unique_ptr<ControlPipeline> pipeline_;
-  Controller* controller_;
-  const FrictionEstimator& friction_;
-  const DisturbanceObserver& disturbance_;
-  const ContactEnvironment& id_env_;  // what the controller gets: env_, or the estimated μ
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
   ContactEnvironment env_;     // configured or commanded μ (the estimate's upper bound)
   FeedbackGains base_gains_;
