@@ -183,7 +183,7 @@ void WritePatchTable(const nlohmann::json& results, std::ostream& md) {
     std::snprintf(b, sizeof(b), "%.2f", *std::max_element(v.begin(), v.end()));
     return std::string(b);
   };
-  md << "\nIssue 18: trot from μ = 1 across an icy patch (μ = 0.1) and off it; mean (min–max) over "
+  md << "\nThe icy patch: trot from μ = 1 across an icy patch (μ = 0.1) and off it; mean (min–max) over "
         "the seeds; on the patch = cycles with a stance foot on it\n\n"
         "| controller's μ | runs | falls | mean error on the patch (rad) | mean stance-foot slip on "
         "the patch (m/s) | mean error, whole run (rad) | footfalls to settle onto / off the ice "
