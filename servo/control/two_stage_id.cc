@@ -164,7 +164,8 @@ qp::Budget TwoStageId::MakeBudget(bool warm, int max_iterations) const noexcept 
 }
 
 IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
-                           const IdInput& in, IdOutput* out) noexcept {
+                           const dynamics::VectorV& h_bias, const IdInput& in,
+                           IdOutput* out) noexcept {
   ++counters_.calls;
   *out = IdOutput{};
   if (!in.qdd_des.allFinite() || !in.v.allFinite() || !(in.dt > 0.0) || !std::isfinite(in.dt) ||
@@ -177,7 +178,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
   }
   const double h = in.dt;
   dynamics::Vector6d a_b;
-  const VectorJ f_id = ContactFreeId(dyn, in.qdd_des, &a_b);
+  const VectorJ f_id = ContactFreeId(dyn, h_bias, in.qdd_des, &a_b);
 
   // zero stance feet: the contact-free floating-base ID is the answer
   if (set_.count == 0) {
@@ -228,7 +229,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
   }
   if (settings_.velocity_consistent_qdd)
     (void)MakeVelocityConsistent(set_, consistent_.v, h, &consistent_.qdd_des);
-  RunStage1(dyn, consistent_, f_id);
+  RunStage1(dyn, h_bias, consistent_, f_id);
   out->stage1 = {true, s1_.status, s1_.objective, s1_.iterations, s1_.solve_time_s};
   if (s1_.status != qp::Status::kOptimal) {
     ++counters_.stage1_failed;
@@ -300,8 +301,8 @@ bool MakeVelocityConsistent(const ContactSet& set, const VectorV& v, double h,
   return true;
 }
 
-void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in,
-                           const VectorJ& f_id) noexcept {
+void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h_bias,
+                           const IdInput& in, const VectorJ& f_id) noexcept {
   const double h = in.dt;
   const int nz = set_.num_impulses();
   const int nc = set_.count;
@@ -309,7 +310,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
   const auto R_q = set_.R.bottomRows<kJ>();
 
   // j, k (15, 16): [j; k] = v + M⁻¹ h (f_ext + [0; f_ID]),  f_ext = −h_bias
-  VectorV w = -h * dyn.bias;
+  VectorV w = -h * h_bias;
   w.tail<kJ>() += h * f_id;
   dynamics::SolveInPlace(dyn.factor, &w);
   const dynamics::Vector6d j = in.v.head<kB>() + w.head<kB>();

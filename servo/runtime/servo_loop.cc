@@ -76,17 +76,17 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
                 config.clock == ClockMode::kRealtime || config.deadline.stop_in_lockstep),
       estimator_(model, config.estimator, config.period_s()),
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
-      controller_(std::make_unique<Controller>(model, ForClock(config.controller, config.clock))),
+      pipeline_(std::make_unique<ControlPipeline>(model, ForClock(config.controller, config.clock),
+                                                  config.friction, config.disturbance,
+                                                  config.period_s())),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
-      friction_(config.friction),
-      disturbance_(model, config.disturbance, config.period_s()),
       base_gains_(config.controller.feedback),
-      command_port_({&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
-                     reference_.get(), &est_status_}),
+      command_port_({&safety_, &pipeline_->controller(), &env_, &base_gains_,
+                     &config_.controller.pid, reference_.get(), &est_status_}),
       sequencer_(model, reference_.get(), MakeMotionConfig(config), config.period_s(), &ref_,
                  &joint_ref_) {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
-  id_env_ = env_;
+  pipeline_->HoldEnvironment(env_);
 }
 
 ServoLoop::~ServoLoop() = default;
@@ -210,8 +210,7 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
 }
 
 void ServoLoop::EnterActive() noexcept {
-  controller_->Reset();  // no integral or warm start carried over from an earlier ACTIVE
-  disturbance_.Reset();
+  pipeline_->Reset();  // no integral, warm start or disturbance carried over from an earlier ACTIVE
   active_time_ = 0.0;
   sequencer_.Enable(MotionNow());
 }
@@ -227,9 +226,7 @@ void ServoLoop::SampleReference() noexcept {
 void ServoLoop::RunController() noexcept {
   tau_.setZero();
   // outside ACTIVE the μ shown is the command's (or the last estimate below it)
-  for (std::size_t f = 0; f < kNumFeet; ++f)
-    id_env_.mu[f] = config_.friction.enabled ? std::min(friction_.feet()[f].mu_control, env_.mu[f])
-                                             : env_.mu[f];
+  pipeline_->HoldEnvironment(env_);
   if (safety_.mode() != ServoMode::kActive) return;
   if (const Fault f = CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) {
     safety_.Report(f);
@@ -241,18 +238,10 @@ void ServoLoop::RunController() noexcept {
     safety_.Report(f);
     return;
   }
-  EstimateFriction();
-  // the disturbance observer's trunk wrench corrects the model's h for this cycle's controller
-  // (h − d_b), after the friction estimate took its forces from the nominal h
-  const bool correct = config_.disturbance.enabled;
-  if (correct) {
-    VectorJ tau_m;
-    const auto& joints = hal_.image().joints;
-    for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
-    dyn_->bias.head<dynamics::kNumBaseDofs>() -= disturbance_.Update(*dyn_, v, tau_m);
-  }
-  id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, id_env_, dt_, &out_);
-  if (correct) dyn_->bias.head<dynamics::kNumBaseDofs>() += disturbance_.wrench();
+  VectorJ tau_m;
+  const auto& joints = hal_.image().joints;
+  for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+  id_status_ = pipeline_->Compute(*dyn_, q, v, tau_m, estimator_.stance(), joint_ref_, env_, &out_);
   if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
   if (FellBackOnDeadline(out_)) {
     ++stats_.controller_fallbacks_deadline;
@@ -260,26 +249,11 @@ void ServoLoop::RunController() noexcept {
     if (budget && DeadlineSpentByAStall(out_, std::chrono::duration<double>(*budget).count()))
       ++stats_.controller_fallbacks_deadline_stalled;
   }
-  if (const Fault f = CheckControllerOutput(controller_->kind(), id_status_, out_)) {
+  if (const Fault f = CheckControllerOutput(pipeline_->controller().kind(), id_status_, out_)) {
     safety_.Report(f);
     return;
   }
   tau_ = out_.tau_Nm;
-}
-
-// the μ Stage I gets: the configured or commanded one, or the estimate below it
-void ServoLoop::EstimateFriction() noexcept {
-  if (!config_.friction.enabled) return;
-  std::array<FootFrictionInput, kNumFeet> in;
-  const auto& joints = hal_.image().joints;
-  for (int f = 0; f < kNumFeet; ++f) {
-    const auto j = static_cast<std::size_t>(3 * f);
-    const Eigen::Vector3d tau(joints[j].torque_Nm, joints[j + 1].torque_Nm, joints[j + 2].torque_Nm);
-    in[static_cast<std::size_t>(f)] = MeasureFoot(model_, *dyn_, estimator_.v(), f,
-                                                  estimator_.stance()[static_cast<std::size_t>(f)], tau);
-  }
-  friction_.Update(in, env_.mu, dt_);
-  for (std::size_t f = 0; f < kNumFeet; ++f) id_env_.mu[f] = friction_.feet()[f].mu_control;
 }
 
 void ServoLoop::Damping() noexcept {
@@ -373,7 +347,7 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
   TelemetrySnapshot& s = snap_;
   const auto& image = hal_.image();
   const auto mode = static_cast<std::int8_t>(safety_.mode());
-  const auto controller = static_cast<std::int8_t>(controller_->kind());
+  const auto controller = static_cast<std::int8_t>(pipeline_->controller().kind());
   s.cycle = cycle_;
   s.time_ns = now_ns;
 
@@ -417,16 +391,16 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
   for (std::size_t f = 0; f < kNumFeet; ++f) {
     c.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
     c.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
-    c.mu[f] = id_env_.mu[f];
+    c.mu[f] = pipeline_->environment().mu[f];
     const auto& imp = out_.impulses[f];
     const Eigen::Vector3d F =
         active && imp.active ? Eigen::Vector3d((imp.normal_Ns * Eigen::Vector3d::UnitZ() +
                                                 imp.tangent_Ns_W) / dt_)
                              : Eigen::Vector3d::Zero();
     for (int i = 0; i < 3; ++i) c.contact_force_N[f][i] = F(i);
-    const FootFriction& fr = friction_.feet()[f];
+    const FootFriction& fr = pipeline_->friction().feet()[f];
     fe.mu_estimate[f] = fr.mu;
-    fe.mu_control[f] = id_env_.mu[f];
+    fe.mu_control[f] = pipeline_->environment().mu[f];
     fe.mu_upper[f] = env_.mu[f];
     fe.confidence[f] = fr.confidence;
     fe.force_ratio[f] = fr.ratio;
@@ -447,10 +421,10 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
 
   hyq_lcm::lcmt_hyq_disturbance_estimate& d = s.disturbance;
   d.enabled = config_.disturbance.enabled;
-  d.held = !active || !config_.disturbance.enabled || disturbance_.held();
+  d.held = !active || !config_.disturbance.enabled || pipeline_->disturbance().held();
   for (int i = 0; i < 3; ++i) {
-    d.force_N[i] = disturbance_.wrench()(i);
-    d.torque_Nm[i] = disturbance_.wrench()(3 + i);
+    d.force_N[i] = pipeline_->disturbance().wrench()(i);
+    d.torque_Nm[i] = pipeline_->disturbance().wrench()(3 + i);
   }
   d.payload_kg = -d.force_N[2] / 9.81;
 

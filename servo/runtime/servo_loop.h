@@ -18,6 +18,7 @@
 
 #include "dynamics/cycle_dynamics.h"
 #include "hal/hal.h"
+#include "hal/latency_histogram.h"
 #include "hal/lockstep_channel.h"
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
@@ -27,9 +28,9 @@
 #include "servo/reference/motion_sequencer.h"
 #include "servo/reference/reference.h"
 #include "servo/runtime/command_port.h"
+#include "servo/runtime/control_pipeline.h"
 #include "servo/runtime/deadline_monitor.h"
 #include "servo/runtime/input_checker.h"
-#include "servo/runtime/latency_histogram.h"
 #include "servo/runtime/safety_state_machine.h"
 #include "servo/runtime/servo_config.h"
 #include "servo/telemetry/telemetry_snapshot.h"
@@ -53,9 +54,9 @@ struct LoopStats {
   /// of those, the ones whose QP ran under half or over 1.25× its budget: the thread was stalled
   /// (DeadlineSpentByAStall, servo/control/id_types.h), not the QP slow
   std::uint64_t controller_fallbacks_deadline_stalled = 0;
-  LatencyHistogram wakeup;                    // wake-up latency
-  LatencyHistogram cycle;                     // read start .. write end
-  LatencyHistogram control;                   // dynamics + controller
+  hal::LatencyHistogram wakeup;               // wake-up latency
+  hal::LatencyHistogram cycle;                // read start .. write end
+  hal::LatencyHistogram control;              // dynamics + controller
   double tracking_error_sum_rad = 0.0;        // Σ ‖q_ref − q‖ over ACTIVE cycles
   double tracking_error_max_rad = 0.0;
   double qp_time_sum_us = 0.0, qp_time_max_us = 0.0;  // Stage I + II, ACTIVE cycles
@@ -103,10 +104,10 @@ class ServoLoop {
   double published_active_s() const noexcept { return published_active_s_.load(std::memory_order_relaxed); }
   const LoopStats& stats() const noexcept { return stats_; }
   const TelemetrySnapshot& snapshot() const noexcept { return snap_; }
-  const Controller& controller() const noexcept { return *controller_; }
+  const Controller& controller() const noexcept { return pipeline_->controller(); }
   const StateEstimator& estimator() const noexcept { return estimator_; }
-  const FrictionEstimator& friction() const noexcept { return friction_; }
-  const DisturbanceObserver& disturbance() const noexcept { return disturbance_; }
+  const FrictionEstimator& friction() const noexcept { return pipeline_->friction(); }
+  const DisturbanceObserver& disturbance() const noexcept { return pipeline_->disturbance(); }
   std::uint64_t events() const noexcept { return safety_.events(); }
   /// The run's first events (up to kFirstEvents) and last event, for the summary.
   std::span<const SafetyEvent> first_events() const noexcept {
@@ -163,12 +164,11 @@ class ServoLoop {
   DeadlineMonitor deadline_;
   StateEstimator estimator_;
   std::unique_ptr<Reference> reference_;
-  std::unique_ptr<Controller> controller_;
+  // friction estimate → disturbance observer → controller, shared with the simulated experiment;
+  // its environment() is what the controller gets: env_, or the estimated μ below it
+  std::unique_ptr<ControlPipeline> pipeline_;
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
   ContactEnvironment env_;     // configured or commanded μ (the estimate's upper bound)
-  FrictionEstimator friction_;
-  DisturbanceObserver disturbance_;
-  ContactEnvironment id_env_;  // what the controller gets: env_, or the estimated μ
   FeedbackGains base_gains_;
   CommandPort command_port_;  // what a command may change (built once)
   ReferenceSample ref_;

@@ -19,7 +19,7 @@
 #include "servo/command/command_channel.h"
 #include "servo/telemetry/lcm_mapping.h"
 #include "servo/telemetry/lcm_url.h"
-#include "servo/telemetry/spsc_ring.h"
+#include "hal/spsc_ring.h"
 
 namespace hyq::servo {
 
@@ -48,7 +48,7 @@ CommandAuthenticator MakeAuthenticator(const CommandChannelConfig& c) {
 
 // Queues `value`, counting it as pushed or, when the ring is full, as dropped.
 template <class T>
-bool PushCounted(SpscRing<T>* ring, const T& value, std::atomic<std::uint64_t>* pushed,
+bool PushCounted(hal::SpscRing<T>* ring, const T& value, std::atomic<std::uint64_t>* pushed,
                  std::atomic<std::uint64_t>* dropped) noexcept {
   const bool ok = ring->TryPush(value);
   (ok ? pushed : dropped)->fetch_add(1, std::memory_order_relaxed);
@@ -70,9 +70,9 @@ struct Telemetry::Impl {
   std::unique_ptr<lcm::LCM> lcm;
   lcm::Subscription* subscription = nullptr;
 
-  SpscRing<TelemetrySnapshot> snapshots;  // servo -> telemetry thread
-  SpscRing<SafetyEvent> events;           // servo -> telemetry thread
-  SpscRing<ServoCommand> commands;        // telemetry thread -> servo
+  hal::SpscRing<TelemetrySnapshot> snapshots;  // servo -> telemetry thread
+  hal::SpscRing<SafetyEvent> events;           // servo -> telemetry thread
+  hal::SpscRing<ServoCommand> commands;        // telemetry thread -> servo
 
   std::atomic<std::uint64_t> snapshots_pushed{0}, snapshots_dropped{0}, snapshots_published{0};
   std::atomic<std::uint64_t> events_pushed{0}, events_dropped{0}, events_published{0};

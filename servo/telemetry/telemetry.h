@@ -2,8 +2,8 @@
 //
 // The servo thread hands one TelemetrySnapshot per cycle and SafetyEvents as they happen to
 // Push/PushEvent, and takes validated ServoCommands from PopCommand. Those three calls only touch
-// lock-free SPSC rings (servo/telemetry/spsc_ring.h): they never allocate, lock, block or throw, whatever
-// the LCM side does. A snapshot is made of the LCM messages themselves (telemetry_snapshot.h). A
+// lock-free SPSC rings (hal/spsc_ring.h): they never allocate, lock, block or throw, whatever the
+// LCM side does. A snapshot is made of the LCM messages themselves (telemetry_snapshot.h). A
 // telemetry thread (Start/Stop) empties the rings, stamps the messages (servo/telemetry/
 // lcm_mapping.h) and publishes them, and, when the command channel is enabled, receives commands
 // and has them authenticated (servo/command/command_auth.h), decoded, validated and rate-limited

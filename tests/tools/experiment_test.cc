@@ -8,9 +8,9 @@
 #include "dynamics/cycle_dynamics.h"
 #include "servo/control/two_stage_id.h"
 #include "tests/dynamics/hyq_fixture.h"
-#include "tools/sim/experiment.h"
+#include "tools/experiment/experiment.h"
 
-namespace hyq::sim {
+namespace hyq::experiment {
 namespace {
 
 using servo::ControllerKind;
@@ -104,7 +104,7 @@ TEST(ClosedLoop, EstimatedFrictionCrossesTheIcyPatchLikeTheOracle) {
     c.reference = servo::Reference::Kind::kTrot;
     c.duration_s = 10.0;
     c.mu = 1.0;
-    c.patches = {ParseGroundPatch("0.6,1.2,-2,2,0.1", "patch")};
+    c.patches = {sim::ParseGroundPatch("0.6,1.2,-2,2,0.1", "patch")};
     c.mu_source = source;
     c.controller = StandardController(ControllerKind::kTwoStageId);
     c.initial_perturbation_rad = 0.02;
@@ -156,7 +156,7 @@ TEST(ClosedLoop, RealisticPlantTrotsWithoutFalling) {
   c.duration_s = 3.0;
   c.mu = 0.1;
   c.controller = StandardController(ControllerKind::kTwoStageId);
-  c.profile = PlantProfile::Realistic();
+  c.profile = sim::PlantProfile::Realistic();
   const hal::HalConfig hal = config::LoadHalConfig(testing::SourceDir() / "config/hyq_hal.yaml");
   c.joints.assign(hal.joints.begin(), hal.joints.end());
   const ExperimentResult r = RunExperiment(HyqModel(), c);
@@ -235,4 +235,4 @@ TEST(ClosedLoop, SameSeedSameRun) {
 }
 
 }  // namespace
-}  // namespace hyq::sim
+}  // namespace hyq::experiment

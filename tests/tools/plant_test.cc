@@ -11,7 +11,7 @@
 #include "dynamics/cycle_dynamics.h"
 #include "servo/estimation/friction_estimator.h"
 #include "tests/dynamics/hyq_fixture.h"
-#include "tools/sim/plant.h"
+#include "sim/plant.h"
 
 namespace hyq::sim {
 namespace {

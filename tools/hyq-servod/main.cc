@@ -195,7 +195,7 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
   j["controller_fallbacks"] = s.controller_fallbacks;
   j["controller_fallbacks_deadline"] = s.controller_fallbacks_deadline;
   j["controller_fallbacks_deadline_stalled"] = s.controller_fallbacks_deadline_stalled;
-  auto hist = [](const hyq::servo::LatencyHistogram& h) {
+  auto hist = [](const hyq::hal::LatencyHistogram& h) {
     return nlohmann::json{{"count", h.count()},         {"mean_us", 1e-3 * h.mean_ns()},
                           {"p50_us", Us(h.Percentile(0.5))}, {"p99_us", Us(h.Percentile(0.99))},
                           {"p999_us", Us(h.Percentile(0.999))}, {"max_us", Us(h.max_ns())}};

@@ -1,12 +1,15 @@
-// The simulated HyQ of issue #8: the MuJoCo plant (tools/sim/plant.h) behind HyQ's devices (the
-// HAL's device Emulator) on any CAN channels, so that the unmodified servo daemon drives it like
-// the real robot (docs/simulation.md).
+// The simulated HyQ: the MuJoCo plant (sim/plant.h) behind HyQ's devices (the HAL's device
+// Emulator) on any CAN channels, so that the unmodified servo daemon drives it like the real
+// robot (docs/simulation.md). This class is the physics, the sensors, the injected faults, fall
+// detection and the lock-step; real time, the boards answer from a thread of their own
+// (sim/board_bus.h) and the steps follow the clock and the master's SYNC (sim/realtime_runner.h).
 //
 // Models, per 1 ms step h:
-//  - actuator j (tools/sim/plant_profile.h, Actuation; with the `realistic` profile HyQ's
-//    hydraulics and torque loop instead, after a transport delay): the board's set-point u (0 when its outputs are disabled) is clamped to
-//    the joint's torque limit, then the applied torque follows a first-order lag with time
-//    constant T, discretised exactly for a set-point held over the step (zero-order hold):
+//  - actuator j (sim/plant_profile.h, Actuation; with the `realistic` profile HyQ's
+//    hydraulics and torque loop instead, after a transport delay): the board's set-point u (0
+//    when its outputs are disabled) is clamped to the joint's torque limit, then the applied
+//    torque follows a first-order lag with time constant T, discretised exactly for a set-point
+//    held over the step (zero-order hold):
 //      tau[k+1] = tau[k] + (1 - exp(-h / T)) (u[k] - tau[k])                    (1)
 //    (T = 0: tau = u), optionally limited in rate: |tau[k+1] - tau[k]| <= rmax h.
 //  - encoders: the emulator reports counts through the HAL calibration, c = c0 + round(d q N/2pi),
@@ -19,7 +22,7 @@
 //    i.e. including the contact forces of the step) plus bias and Gaussian noise.
 //  - hold: until every actuator board has its outputs enabled, the robot is held at its standing
 //    posture (the state is reset every step, as on its stand); the IMU reads rest.
-//  - faults at simulated times (FaultSpec, tools/sim/fault_spec.h): silent board, corrupt /
+//  - faults at simulated times (FaultSpec, sim/fault_spec.h): silent board, corrupt /
 //    dropped TPDOs, broken sensor, bus-off, EMCY.
 //
 // Lock-step (deterministic): PollLockStep() drains the channels through the emulator at simulated
@@ -27,7 +30,7 @@
 // received on every bus, the latest set-points go through (1) and the plant steps once. A bus
 // whose SYNCs stop while another is kMaxSyncLead SYNCs ahead no longer holds the others back.
 // Real time: Poll(now) answers SYNCs with the latest state, Step() advances the physics; the
-// caller (RunRealTime) steps on absolute CLOCK_MONOTONIC deadlines.
+// caller (RealtimeRunner) steps on absolute CLOCK_MONOTONIC deadlines.
 //
 // Poll, PollLockStep and Step do not allocate (tests/hil/simulated_robot_test.cc, NoHeap).
 #pragma once
@@ -45,19 +48,16 @@
 #include "hal/can_channel.h"
 #include "hal/emulator.h"
 #include "hal/hal_config.h"
-#include "servo/runtime/latency_histogram.h"
-#include "servo/telemetry/spsc_ring.h"
-#include "tools/sim/fault_spec.h"
-#include "tools/sim/plant.h"
-#include "tools/sim/plant_profile.h"
-#include "tools/sim/sync_phase_lock.h"
+#include "sim/fault_spec.h"
+#include "sim/plant.h"
+#include "sim/plant_profile.h"
 
 namespace hyq::sim {
 
 struct SimulatedRobotConfig {
   PlantConfig plant;                      // timestep_s is taken from the HAL's cycle period
-  /// How the plant differs from the model (issue 15): model error, hydraulic actuators instead
-  /// of eq. (1), joint friction, delay, sensor biases. Default: ideal (none of them).
+  /// How the plant differs from the model: model error, hydraulic actuators instead of eq. (1),
+  /// joint friction, delay, sensor biases. Default: ideal (none of them).
   PlantProfile profile;
   double actuator_tau_s = 0.005;          // T of eq. (1); 0 = ideal actuator; unused with hydraulics
   double actuator_rate_limit_Nm_s = 0.0;  // 0 = none
@@ -78,9 +78,9 @@ struct SimulatedRobotConfig {
   /// is still a fall.
   double fall_height_m = 0.2;  // the trunk within 0.1 m of the ground
   double max_sit_speed_m_s = 0.5;
-  /// Real time: a physics step begins this long after the master's SYNC (SyncPhaseLock,
-  /// tools/sim/sync_phase_lock.h), so that each set-point acts from the next step, as in
-  /// lock-step; < 0: the steps run free of the SYNC, at the phase the start gave.
+  /// Real time (RealtimeRunner): a physics step begins this long after the master's SYNC
+  /// (SyncPhaseLock, sim/sync_phase_lock.h), so that each set-point acts from the next step, as
+  /// in lock-step; < 0: the steps run free of the SYNC, at the phase the start gave.
   std::int64_t sync_phase_ns = 500'000;
 };
 
@@ -90,24 +90,10 @@ struct SimulatedRobotCounters {
   std::uint64_t lockstep_forced = 0;     // steps taken because one bus fell kMaxSyncLead behind
   std::uint64_t faults_injected = 0;
   std::array<std::uint64_t, hal::kMaxBuses> syncs{};  // per bus, seen on the wire
-  std::uint64_t realtime_overruns = 0;  // timer periods that passed unanswered (real time)
-  std::uint64_t late_steps = 0;         // real time: steps begun more than a period after due
-  std::uint64_t dropped_steps = 0;      // real time: periods given up (more than kMaxCatchUp late)
-  std::uint64_t stale_answers = 0;      // real time: SYNCs answered while the physics step that was
-                                        // due was more than a period late (the latest state held)
 };
 
-/// Real time: the boards answer SYNCs from a thread of their own (the bus thread), as the real
-/// boards answer whatever the physics computer does; `setup` runs first on that thread (its
-/// scheduling: hyq-sim puts it SCHED_FIFO on the servo's core). enabled = false: the stepping
-/// thread answers between its steps (a stalled step then leaves the SYNCs unanswered).
-struct BusThreadConfig {
-  bool enabled = true;
-  std::function<void()> setup;
-};
-
-/// Real time: what the stepping thread hands the bus thread each step (the boards' sensor
-/// values) and what it takes back (the boards' set-points).
+/// What a step hands HyQ's boards (their sensor values) and what it takes back (their
+/// set-points); real time, across threads (sim/board_bus.h).
 struct SensorFrame {
   std::array<double, dynamics::kNumJoints> q{}, v{}, tau{};
   std::array<double, 3> gyro{}, accel{};
@@ -117,10 +103,11 @@ struct SetpointFrame {
   std::array<bool, dynamics::kNumJoints> enabled{};
 };
 
+class BoardBus;
+
 class SimulatedRobot {
  public:
   static constexpr std::uint64_t kMaxSyncLead = 3;
-  static constexpr std::uint64_t kMaxCatchUp = 10;  // real time: steps taken at once when late
 
   /// channels[i] carries config.buses[i] (the device side); not owned, must outlive this.
   /// Throws (ConfigError, PlantError) at configuration time.
@@ -144,25 +131,38 @@ class SimulatedRobot {
   /// PollLockStep(). Returns the steps taken (0 on timeout). Channels without an fd: no wait.
   int WaitAndPollLockStep(int timeout_ms) noexcept;
 
-  // --- real time ------------------------------------------------------------------------------
+  /// Lock-step until `stop` or `duration_s` of simulated time (0: until stop).
+  std::uint64_t RunLockStep(const std::atomic<bool>& stop, double duration_s);
+
+  // --- the boards, for whichever thread answers them -----------------------------------------
   /// Answers whatever arrived (Emulator::Poll(now_ns)); SYNCs are counted, nothing steps.
-  /// Not while RunRealTime's bus thread runs (it owns the emulator then).
+  /// Not while a BoardBus runs (it owns the emulator then).
   void Poll(std::int64_t now_ns) noexcept;
   /// One physics step with the latest set-points (actuator model, plant, sensors, faults).
   void Step() noexcept;
-  /// Runs until `stop` or `duration_s` of simulated time (0: until stop): physics on absolute
-  /// CLOCK_MONOTONIC deadlines (timerfd, TFD_TIMER_ABSTIME) every period, kept at
-  /// cfg.sync_phase_ns after the master's SYNC (SyncPhaseLock); SYNCs answered as they
-  /// arrive with the latest state, by the bus thread (`bus`), so that a late or stalled physics
-  /// step (a preempted core, a page fault) never leaves a SYNC unanswered: the answer then
-  /// carries the last step's state, counted in stale_answers. Without the bus thread the
-  /// stepping thread answers between steps, also after each step of a catch-up (at most
-  /// kMaxCatchUp at once). Each step's lateness (start − due) goes into step_lateness(), its
-  /// duration into step_time(). Returns the steps taken.
-  std::uint64_t RunRealTime(const std::atomic<bool>& stop, double duration_s,
-                            const BusThreadConfig& bus = {});
-  /// Lock-step until `stop` or `duration_s` of simulated time (0: until stop).
-  std::uint64_t RunLockStep(const std::atomic<bool>& stop, double duration_s);
+  /// The faults due at simulated time t_s (the stepping thread's own before each step, or the
+  /// bus thread's).
+  void ApplyFaults(double t_s) noexcept;
+  /// The boards' sensor values (encoders, load cells, IMU).
+  void SetBoardSensors(const SensorFrame& f) noexcept;
+  /// The boards' set-points and whether their outputs are enabled.
+  SetpointFrame BoardSetpoints() const noexcept;
+  /// Real time, on the thread that answers: the SYNCs seen since *seen (the most on any bus);
+  /// when there are any, `now_ns` becomes the newest SYNC's time (last_sync_ns(), the phase
+  /// lock's reference).
+  std::uint64_t NoteNewSyncs(std::int64_t now_ns, std::uint64_t* seen) noexcept;
+  std::int64_t last_sync_ns() const noexcept { return last_sync_ns_.load(std::memory_order_relaxed); }
+  void ForgetLastSync() noexcept { last_sync_ns_.store(0, std::memory_order_relaxed); }
+  /// Simulated time, for another thread.
+  std::int64_t published_time_ns() const noexcept { return sim_now_ns_.load(std::memory_order_relaxed); }
+  /// The boards go to `bus` (its thread answers them; a step then takes their set-points from
+  /// it and hands it the sensor values), or back to the stepping thread (nullptr). Only while
+  /// no step runs.
+  void ConnectBoardBus(BoardBus* bus) noexcept { bus_ = bus; }
+  /// The fd to poll for bus b's frames (−1: none, e.g. the in-process loopback).
+  int channel_poll_fd(std::size_t b) const noexcept;
+  std::int64_t period_ns() const noexcept { return period_ns_; }
+  const SimulatedRobotConfig& config() const noexcept { return cfg_; }
 
   // --- state ----------------------------------------------------------------------------------
   double time_s() const noexcept;  // simulated: steps x period
@@ -182,15 +182,6 @@ class SimulatedRobot {
   const dynamics::VectorJ& measured_torque_Nm() const noexcept { return tau_measured_; }
   const ImuReading& imu_reported() const noexcept { return imu_reported_; }
   const SimulatedRobotCounters& counters() const noexcept { return counters_; }
-  const servo::LatencyHistogram& step_lateness() const noexcept { return step_lateness_; }
-  const servo::LatencyHistogram& step_time() const noexcept { return step_time_; }
-  /// real time, the bus thread: the time between its wake-ups (a gap over a period: it was not
-  /// scheduled)
-  const servo::LatencyHistogram& bus_gap() const noexcept { return bus_gap_; }
-  const servo::LatencyHistogram& bus_poll_time() const noexcept { return bus_poll_time_; }  // its work
-  /// real time, SYNC-locked: |phase error| of each step's start, i.e. how far from
-  /// sync_phase_ns after the last SYNC it began (steps while a master sends SYNCs)
-  const servo::LatencyHistogram& sync_phase_error() const noexcept { return sync_phase_error_; }
   const std::vector<FaultSpec>& faults() const noexcept { return faults_; }
   Plant& plant() noexcept { return *plant_; }
   const Plant& plant() const noexcept { return *plant_; }
@@ -200,13 +191,6 @@ class SimulatedRobot {
 
  private:
   class SyncCounter;
-  // the faults due at simulated time t_s, on whichever thread owns the emulator
-  void ApplyFaults(double t_s) noexcept;
-  void SetEmulatorSensors(const SensorFrame& f) noexcept;
-  void RunBusThread(const std::atomic<bool>& stop, const BusThreadConfig& bus) noexcept;
-  // real time, on the thread that answers: the SYNCs seen since *seen (the most on any bus);
-  // when there are any, `now_ns` becomes the newest SYNC's time (the phase lock's reference)
-  std::uint64_t NoteNewSyncs(std::int64_t now_ns, std::uint64_t* seen) noexcept;
   void UpdateSensors() noexcept;
   double Gaussian() noexcept;
 
@@ -219,16 +203,8 @@ class SimulatedRobot {
   std::unique_ptr<Actuation> actuation_;
   Eigen::Vector3d gyro_bias_, accel_bias_;  // the config's plus the profile's
   std::unique_ptr<hal::Emulator> emulator_;
-  // Real time with the bus thread: the emulator (board state, set-points, sensor values,
-  // injected faults) is the bus thread's alone; the stepping thread hands it each step's sensor
-  // values and takes the boards' set-points back through two wait-free rings (the newest wins),
-  // so neither thread ever waits for the other, whichever of them a stall catches
-  static constexpr std::size_t kHandoffDepth = 8;
-  bool bus_thread_owns_emulator_ = false;  // set before the bus thread starts, cleared after join
-  servo::SpscRing<SensorFrame> sensor_frames_{kHandoffDepth};      // stepping → bus thread
-  servo::SpscRing<SetpointFrame> setpoint_frames_{kHandoffDepth};  // bus thread → stepping
+  BoardBus* bus_ = nullptr;  // real time: the boards' own thread, when it runs
   SetpointFrame setpoints_;  // the stepping thread's newest
-  std::atomic<std::int64_t> step_due_ns_{0};  // real time: when the next physics step is due
   std::atomic<std::int64_t> sim_now_ns_{0};   // simulated time, for the bus thread's faults
   std::atomic<std::int64_t> last_sync_ns_{0};  // real time: when the newest SYNC was seen
   dynamics::VectorQ q_hold_;
@@ -239,9 +215,6 @@ class SimulatedRobot {
   std::vector<FaultSpec> faults_;
   std::vector<std::uint8_t> fault_state_;  // 0 pending, 1 active, 2 done
   SimulatedRobotCounters counters_;
-  servo::LatencyHistogram step_lateness_, step_time_;  // real time only
-  servo::LatencyHistogram bus_gap_, bus_poll_time_;  // real time, the bus thread
-  servo::LatencyHistogram sync_phase_error_;         // real time, the stepping thread
   bool holding_;
   double max_descent_m_s_ = 0.0;
   bool fell_ = false;

@@ -1,4 +1,4 @@
-// One of HyQ's torque-controlled hydraulic joints (issue 15, part 2): a servo valve, the
+// One of HyQ's torque-controlled hydraulic joints: a servo valve, the
 // actuator's two chambers, seal friction, and the board's low-level torque loop, integrated with
 // sub-steps inside the plant's 1 ms step. HFE/KFE: an asymmetric cylinder acting through the
 // HAL's lever arm r(q) (hal/calibration.h, eq. (2)-(3)); HAA: a rotary actuator (r = 1).

@@ -1,4 +1,4 @@
-#include "servo/telemetry/spsc_ring.h"
+#include "hal/spsc_ring.h"
 
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 
 #include "tests/support/no_heap_guard.h"
 
-namespace hyq::servo {
+namespace hyq::hal {
 namespace {
 
 TEST(SpscRing, RejectsCapacityNotPowerOfTwo) {
@@ -101,4 +101,4 @@ TEST(SpscRing, TwoThreadStress) {
 }
 
 }  // namespace
-}  // namespace hyq::servo
+}  // namespace hyq::hal

@@ -1,4 +1,4 @@
-#include "tools/sim/plant.h"
+#include "sim/plant.h"
 
 #include <cmath>
 #include <cstring>

@@ -1,11 +1,11 @@
-// A plant that is not the model (issue 15, part 2): every way the simulated HyQ may differ from
+// A plant that is not the model: every way the simulated HyQ may differ from
 // what the controller assumes, each switchable, in one struct shared by hyq-sim
 // (SimulatedRobot) and the in-process experiment (RunExperiment). docs/simulation.md, "Plant
 // profiles", lists every factor, its flag, its level in `realistic` and the source of the level.
 //
 //  - model error: payload and per-link mass / CoM / inertia errors (PlantConfig::model_error,
 //    applied to the MuJoCo model; the controller keeps the nominal URDF)
-//  - actuators: HyQ's hydraulics with the board's torque loop (tools/sim/hydraulic_actuator.h)
+//  - actuators: HyQ's hydraulics with the board's torque loop (sim/hydraulic_actuator.h)
 //    instead of the first-order lag
 //  - joint friction, Coulomb + viscous (PlantConfig::joint_friction)
 //  - transport delay: a set-point takes effect k plant steps after it was given
@@ -23,8 +23,8 @@
 
 #include "dynamics/model.h"
 #include "hal/calibration.h"
-#include "tools/sim/hydraulic_actuator.h"
-#include "tools/sim/plant.h"
+#include "sim/hydraulic_actuator.h"
+#include "sim/plant.h"
 
 namespace hyq::sim {
 

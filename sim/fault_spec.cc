@@ -1,4 +1,4 @@
-#include "tools/sim/fault_spec.h"
+#include "sim/fault_spec.h"
 
 #include <cmath>
 #include <cstdlib>

@@ -1,4 +1,4 @@
-#include "tools/sim/hydraulic_actuator.h"
+#include "sim/hydraulic_actuator.h"
 
 #include <algorithm>
 #include <cmath>

@@ -1,4 +1,4 @@
-#include "tools/sim/experiment.h"
+#include "tools/experiment/experiment.h"
 
 #include <algorithm>
 #include <chrono>
@@ -10,23 +10,24 @@
 #include <Eigen/Geometry>
 
 #include "dynamics/cycle_dynamics.h"
+#include "servo/runtime/control_pipeline.h"
 
-namespace hyq::sim {
+namespace hyq::experiment {
 
 servo::ControllerConfig StandardController(servo::ControllerKind kind) {
   servo::ControllerConfig c;
   c.kind = kind;
   // PD shared by all (N m/rad, N m s/rad), per joint type haa, hfe, kfe
   const double kp[3] = {300.0, 300.0, 300.0}, kd[3] = {8.0, 8.0, 8.0};
-  for (int j = 0; j < 12; ++j) {
-    c.pid.kp(j) = kp[j % 3];
-    c.pid.kd(j) = kd[j % 3];
+  for (int j = 0; j < servo::kNumJoints; ++j) {
+    c.pid.kp(j) = kp[j % dynamics::kJointsPerLeg];
+    c.pid.kd(j) = kd[j % dynamics::kJointsPerLeg];
     c.pid.ki(j) = 0.0;
     c.pid.i_limit(j) = 0.0;
-    c.feedback.kp_tau(j) = kp[j % 3];
-    c.feedback.kd_tau(j) = kd[j % 3];
-    c.pd_gravity.kp(j) = kp[j % 3];
-    c.pd_gravity.kd(j) = kd[j % 3];
+    c.feedback.kp_tau(j) = kp[j % dynamics::kJointsPerLeg];
+    c.feedback.kd_tau(j) = kd[j % dynamics::kJointsPerLeg];
+    c.pd_gravity.kp(j) = kp[j % dynamics::kJointsPerLeg];
+    c.pd_gravity.kd(j) = kd[j % dynamics::kJointsPerLeg];
   }
   // the ID controllers' q̈_des = q̈_ref (no acceleration feedback: the PD above is the feedback)
   return c;
@@ -43,7 +44,8 @@ const char* ToString(MuSource s) noexcept {
 
 namespace {
 
-// The estimate is "settled" on ground of true μ within this (issue 18's experiment)
+// The estimate is "settled" on ground of true μ within this: 0.05 absolute on slippery ground,
+// 20 % of the truth on grippy ground
 bool Settled(double estimate, double truth) {
   return std::abs(estimate - truth) <= std::max(0.05, 0.2 * truth);
 }
@@ -76,48 +78,51 @@ class SettlingTracker {
   }
 
  private:
-  std::array<double, 4> last_{};
-  std::array<bool, 4> has_last_{}, was_loaded_{};
-  std::array<int, 4> open_{-1, -1, -1, -1}, footfalls_{};
+  std::array<double, servo::kNumFeet> last_{};
+  std::array<bool, servo::kNumFeet> has_last_{}, was_loaded_{};
+  std::array<int, servo::kNumFeet> open_{-1, -1, -1, -1}, footfalls_{};
 };
 
 }  // namespace
 
 ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentConfig& cfg,
                                const std::function<void(double)>& progress) {
-  PlantConfig pc;
+  sim::PlantConfig pc;
   pc.ground_mu = cfg.mu;
   pc.foot_mu = cfg.foot_mu;
   pc.patches = cfg.patches;
   cfg.profile.ApplyTo(&pc);
-  Plant plant(model, pc);
-  Actuation actuation(model, cfg.joints, cfg.profile, 0.0, 0.0, pc.timestep_s);
+  sim::Plant plant(model, pc);
+  sim::Actuation actuation(model, cfg.joints, cfg.profile, 0.0, 0.0, pc.timestep_s);
   servo::Reference ref = cfg.reference == servo::Reference::Kind::kTrot
                              ? servo::Reference::Trot(model, cfg.trot)
                          : cfg.reference == servo::Reference::Kind::kFigureEight
                              ? servo::Reference::FigureEight(model, cfg.figure_eight)
                              : servo::Reference::Stand(model);
-  servo::Controller ctl(model, cfg.controller);
   auto dyn = std::make_unique<dynamics::CycleDynamics>();
 
   dynamics::VectorQ q0 = model.StandingQ();
   if (cfg.initial_perturbation_rad > 0) {
     std::mt19937_64 rng(cfg.seed);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
-    for (int j = 0; j < 12; ++j) q0(7 + j) += cfg.initial_perturbation_rad * u(rng);
+    for (int j = 0; j < servo::kNumJoints; ++j)
+      q0(dynamics::kNq - servo::kNumJoints + j) += cfg.initial_perturbation_rad * u(rng);
   }
   plant.Reset(q0, dynamics::VectorV::Zero());
-  actuation.Reset(q0.tail<12>());
+  actuation.Reset(q0.tail<servo::kNumJoints>());
 
-  servo::ContactEnvironment env;
-  for (int f = 0; f < 4; ++f) env.mu[f] = cfg.foot_mu[f] >= 0 ? cfg.foot_mu[f] : cfg.mu;
-  const std::array<double, 4> base_mu = env.mu;  // the ground's away from the patches
+  // the controller's μ ceiling: the assumed μ (the estimate's upper bound), or the plant's own
+  servo::ContactEnvironment mu_ceiling;
+  for (std::size_t f = 0; f < servo::kNumFeet; ++f)
+    mu_ceiling.mu[f] = cfg.foot_mu[f] >= 0 ? cfg.foot_mu[f] : cfg.mu;
+  const std::array<double, servo::kNumFeet> base_mu = mu_ceiling.mu;  // the ground's off the patches
   servo::FrictionEstimatorConfig fc = cfg.friction;
-  fc.enabled = true;
-  servo::FrictionEstimator friction(fc);
+  fc.enabled = cfg.mu_source == MuSource::kEstimated;
+  servo::ControlPipeline pipeline(model, cfg.controller, fc, cfg.disturbance, pc.timestep_s);
+  pipeline.HoldEnvironment(mu_ceiling);
+  const servo::FrictionEstimator& friction = pipeline.friction();
   SettlingTracker settling;
   servo::VectorJ tau_measured = servo::VectorJ::Zero();  // the load cells (Actuation::measured_Nm)
-  servo::DisturbanceObserver dob(model, cfg.disturbance, pc.timestep_s);
   double patch_err = 0, patch_slip = 0;
   long patch_slip_n = 0;
 
@@ -138,35 +143,27 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     const auto ds = dynamics::ComputeCycleDynamics(model, q, v, dyn.get());
     servo::VectorJ tau = servo::VectorJ::Zero();
     if (ds == dynamics::DynamicsStatus::kOk) {
-      if (cfg.mu_source == MuSource::kOracle) {
-        for (int f = 0; f < 4; ++f) env.mu[static_cast<std::size_t>(f)] = plant.foot_friction(f);
-      } else if (cfg.mu_source == MuSource::kEstimated) {
-        std::array<servo::FootFrictionInput, 4> in;
-        for (int f = 0; f < 4; ++f)
-          in[static_cast<std::size_t>(f)] =
-              servo::MeasureFoot(model, *dyn, v, f, rs.joints.stance[static_cast<std::size_t>(f)],
-                                 tau_measured.segment<3>(3 * f));
-        friction.Update(in, base_mu, dt);
-        for (std::size_t f = 0; f < 4; ++f) env.mu[f] = friction.feet()[f].mu_control;
-      }
-      if (cfg.disturbance.enabled)
-        dyn->bias.head<dynamics::kNumBaseDofs>() -= dob.Update(*dyn, v, tau_measured);
-      (void)ctl.Compute(*dyn, q, v, rs.joints, env, dt, &out);
+      if (cfg.mu_source == MuSource::kOracle)
+        for (int f = 0; f < servo::kNumFeet; ++f)
+          mu_ceiling.mu[static_cast<std::size_t>(f)] = plant.foot_friction(f);
+      (void)pipeline.Compute(*dyn, q, v, tau_measured, rs.joints.stance, rs.joints, mu_ceiling,
+                             &out);
       tau = out.tau_Nm;
-      if (cfg.record_id_inputs) r.id_inputs.push_back(ctl.last_input());
+      if (cfg.record_id_inputs) r.id_inputs.push_back(pipeline.controller().last_input());
     }
     const auto t1 = std::chrono::steady_clock::now();
-    for (int j = 0; j < 12; ++j)
+    for (int j = 0; j < servo::kNumJoints; ++j)
       tau(j) = std::clamp(tau(j), -model.limits[j].effort_Nm, model.limits[j].effort_Nm);
-    const std::array<double, 4> mu_true{plant.foot_friction(0), plant.foot_friction(1),
-                                        plant.foot_friction(2), plant.foot_friction(3)};
-    actuation.Step(tau, q.tail<12>(), v.tail<12>());
+    std::array<double, servo::kNumFeet> mu_true;
+    for (int f = 0; f < servo::kNumFeet; ++f)
+      mu_true[static_cast<std::size_t>(f)] = plant.foot_friction(f);
+    actuation.Step(tau, q.tail<servo::kNumJoints>(), v.tail<servo::kNumJoints>());
     plant.Step(actuation.applied_Nm());
     tau_measured = actuation.measured_Nm();
 
     Sample s;
     s.t = t;
-    s.q = q.tail<12>();
+    s.q = q.tail<servo::kNumJoints>();
     s.q_ref = rs.joints.q;
     s.tau = tau;
     s.tau_applied = actuation.applied_Nm();
@@ -174,11 +171,11 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     bool on_patch = false;
     double patch_slip_cycle = 0;
     int patch_slip_feet = 0;
-    for (std::size_t f = 0; f < 4; ++f) {
+    for (std::size_t f = 0; f < servo::kNumFeet; ++f) {
       const auto& fr = friction.feet()[f];
       const bool estimated = cfg.mu_source == MuSource::kEstimated;
       s.mu_true[f] = mu_true[f];
-      s.mu_control[f] = env.mu[f];
+      s.mu_control[f] = pipeline.environment().mu[f];
       s.mu_estimate[f] = estimated ? fr.mu : std::nan("");
       s.slipping[f] = estimated && fr.slipping;
       if (estimated) settling.Observe(t, static_cast<int>(f), fr.loaded, mu_true[f], fr.mu, &r.settling);
@@ -190,12 +187,12 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
     }
     if (on_patch) {
       ++r.patch_cycles;
-      patch_err += (rs.joints.q - q.tail<12>()).norm();
+      patch_err += (rs.joints.q - q.tail<servo::kNumJoints>()).norm();
       patch_slip += patch_slip_cycle;
       patch_slip_n += patch_slip_feet;
     }
-    s.disturbance = dob.wrench();
-    for (int f = 0; f < 4; ++f) {
+    s.disturbance = pipeline.disturbance().wrench();
+    for (int f = 0; f < servo::kNumFeet; ++f) {
       s.contact_force_W[f] = contacts[f].force_W;
       s.touching[f] = contacts[f].touching;
       s.stance_ref[f] = rs.joints.stance[f];
@@ -231,9 +228,11 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
   r.patch_mean_error_rad = r.patch_cycles ? patch_err / static_cast<double>(r.patch_cycles) : 0.0;
   r.patch_mean_slip_speed = patch_slip_n ? patch_slip / static_cast<double>(patch_slip_n) : 0.0;
   switch (cfg.controller.kind) {
-    case servo::ControllerKind::kTwoStageId: r.fallbacks = ctl.two_stage_counters(); break;
-    case servo::ControllerKind::kStage1Id: r.fallbacks = ctl.stage1_counters(); break;
-    case servo::ControllerKind::kNoSlipId: r.fallbacks = ctl.noslip_counters(); break;
+    case servo::ControllerKind::kTwoStageId:
+      r.fallbacks = pipeline.controller().two_stage_counters();
+      break;
+    case servo::ControllerKind::kStage1Id: r.fallbacks = pipeline.controller().stage1_counters(); break;
+    case servo::ControllerKind::kNoSlipId: r.fallbacks = pipeline.controller().noslip_counters(); break;
     case servo::ControllerKind::kPid:
     case servo::ControllerKind::kPdGravity: break;
   }
@@ -245,31 +244,31 @@ void WriteCsv(const ExperimentResult& r, const std::string& path) {
   if (!f) throw std::runtime_error(path + ": cannot open for writing");
   f << "t";
   for (const char* col : {"q", "q_ref", "tau"})
-    for (int j = 0; j < 12; ++j) f << ',' << col << j;
-  for (int leg = 0; leg < 4; ++leg)
+    for (int j = 0; j < servo::kNumJoints; ++j) f << ',' << col << j;
+  for (int leg = 0; leg < servo::kNumFeet; ++leg)
     f << ",f" << leg << "_x,f" << leg << "_y,f" << leg << "_z,slip" << leg << ",stance" << leg
       << ",touch" << leg;
   f << ",error_norm,base_height,control_us,qp_us,stage1,stage2,fallback";
-  for (int leg = 0; leg < 4; ++leg)
+  for (int leg = 0; leg < servo::kNumFeet; ++leg)
     f << ",mu_true" << leg << ",mu_control" << leg << ",mu_estimate" << leg << ",slipping" << leg;
   f << '\n';
   f.precision(9);
   for (const Sample& s : r.samples) {
     f << s.t;
     for (const auto* v : {&s.q, &s.q_ref, &s.tau})
-      for (int j = 0; j < 12; ++j) f << ',' << (*v)(j);
-    for (int leg = 0; leg < 4; ++leg)
+      for (int j = 0; j < servo::kNumJoints; ++j) f << ',' << (*v)(j);
+    for (int leg = 0; leg < servo::kNumFeet; ++leg)
       f << ',' << s.contact_force_W[leg].x() << ',' << s.contact_force_W[leg].y() << ','
         << s.contact_force_W[leg].z() << ',' << s.slip_speed[leg] << ',' << s.stance_ref[leg]
         << ',' << s.touching[leg];
     f << ',' << s.error_norm_rad << ',' << s.base_height_m << ',' << s.control_time_us << ','
       << s.qp_time_us << ','
       << int(s.stage1_status) << ',' << int(s.stage2_status) << ',' << int(s.fallback);
-    for (std::size_t leg = 0; leg < 4; ++leg)
+    for (std::size_t leg = 0; leg < servo::kNumFeet; ++leg)
       f << ',' << s.mu_true[leg] << ',' << s.mu_control[leg] << ',' << s.mu_estimate[leg] << ','
         << s.slipping[leg];
     f << '\n';
   }
 }
 
-}  // namespace hyq::sim
+}  // namespace hyq::experiment

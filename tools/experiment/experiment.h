@@ -1,5 +1,7 @@
-// One simulated experiment (docs/experiments.md): the MuJoCo HyQ, the controller the daemon runs
-// (servo/control/controller.h) with the true state, a reference (stand, trot, figure eight), 1 kHz.
+// One simulated experiment (docs/experiments.md): the MuJoCo HyQ (sim/plant.h), the daemon's
+// control pipeline (servo/runtime/control_pipeline.h) with the true state, a reference (stand,
+// trot, figure eight), 1 kHz. The μ the controller gets is assumed, the plant's own (an oracle)
+// or estimated online.
 #pragma once
 
 #include <functional>
@@ -10,12 +12,12 @@
 #include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
-#include "tools/sim/plant.h"
-#include "tools/sim/plant_profile.h"
+#include "sim/plant.h"
+#include "sim/plant_profile.h"
 
-namespace hyq::sim {
+namespace hyq::experiment {
 
-/// Where the controller's μ per foot comes from (issue 18's experiment).
+/// Where the controller's μ per foot comes from.
 enum class MuSource : std::uint8_t {
   kAssumed,    // mu / foot_mu everywhere, whatever the ground under the feet is
   kOracle,     // the plant's true μ under each foot, every cycle (a priori knowledge)
@@ -31,21 +33,21 @@ struct ExperimentConfig {
   servo::FigureEightParams figure_eight;
   double duration_s = 4.0;
   double mu = 1.0;                        // ground friction (plant and controller)
-  std::array<double, 4> foot_mu{-1, -1, -1, -1};
-  std::vector<GroundPatch> patches;       // the plant's friction patches (the controller's μ: mu_source)
+  std::array<double, servo::kNumFeet> foot_mu{-1, -1, -1, -1};
+  std::vector<sim::GroundPatch> patches;  // the plant's friction patches (the controller's μ: mu_source)
   MuSource mu_source = MuSource::kAssumed;
   servo::FrictionEstimatorConfig friction;  // for kEstimated (enabled is implied)
   servo::ControllerConfig controller;
-  /// The trunk's disturbance observer (issue 15): its estimate corrects the model's h for the
-  /// controller (the ID kinds and PD + g).
+  /// The trunk's disturbance observer: its estimate corrects the model's h for the controller
+  /// (the ID kinds and PD + g).
   servo::DisturbanceObserverConfig disturbance;
   std::uint64_t seed = 1;                 // initial-state perturbation
   double initial_perturbation_rad = 0.0;  // random joint offsets at t = 0
   bool record_id_inputs = false;          // keep every cycle's ID problem (benchmarks, files)
-  /// How the plant differs from the model (issue 15; default ideal: the controller's torque is
+  /// How the plant differs from the model (default ideal: the controller's torque is
   /// applied as it is). The controller keeps the nominal model and the true state; its measured
   /// torques (the friction estimator's input) are the load cells', bias included.
-  PlantProfile profile;
+  sim::PlantProfile profile;
   /// The HAL's joint calibrations (lever arms), needed when profile.hydraulics.
   std::vector<hal::JointCalibration> joints;
 };
@@ -58,16 +60,17 @@ struct Sample {
   double t;
   servo::VectorJ q, q_ref, tau;
   servo::VectorJ tau_applied;            // what the plant applied (the actuators' output)
-  std::array<Eigen::Vector3d, 4> contact_force_W;
-  std::array<double, 4> slip_speed;      // tangential contact-point speed of stance feet, m/s
-  std::array<bool, 4> stance_ref, touching;
+  std::array<Eigen::Vector3d, servo::kNumFeet> contact_force_W;
+  std::array<double, servo::kNumFeet> slip_speed;  // tangential contact-point speed of stance feet, m/s
+  std::array<bool, servo::kNumFeet> stance_ref, touching;
   double error_norm_rad;                 // ‖q_ref − q‖
   double base_height_m;
   double control_time_us;                // dynamics + controller, wall clock
   double qp_time_us;                     // Stage I + Stage II solves (the paper's timing)
   std::uint8_t stage1_status, stage2_status, fallback;
-  std::array<double, 4> mu_true, mu_control, mu_estimate;  // plant, Stage I, estimator (or NaN)
-  std::array<bool, 4> slipping;          // the estimator's slip flag
+  // plant, Stage I, estimator (or NaN)
+  std::array<double, servo::kNumFeet> mu_true, mu_control, mu_estimate;
+  std::array<bool, servo::kNumFeet> slipping;          // the estimator's slip flag
   Eigen::Matrix<double, 6, 1> disturbance = Eigen::Matrix<double, 6, 1>::Zero();  // d_b (observer on)
 };
 
@@ -102,4 +105,4 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
 /// Writes the time series as CSV (one row per sample).
 void WriteCsv(const ExperimentResult& r, const std::string& path);
 
-}  // namespace hyq::sim
+}  // namespace hyq::experiment

@@ -1,24 +1,46 @@
-#include "tools/sim/simulated_robot.h"
+#include "sim/simulated_robot.h"
 
 #include <poll.h>
-#include <sys/timerfd.h>
-#include <time.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <cerrno>
 #include <cmath>
-#include <thread>
 
 #include <Eigen/Geometry>
 
-#include "hal/clock.h"
-#include "hal/config_error.h"
-#include "servo/reference/reference.h"
+#include "dynamics/leg_kinematics.h"
 #include "hal/config_error.h"
 #include "hal/protocol.h"
+#include "sim/board_bus.h"
 
 namespace hyq::sim {
+namespace {
+
+// HyQ resting at base height `height_m`: the base level at the origin, each foot on the ground
+// under its place in the standing posture, the legs' joints by their inverse kinematics from
+// the standing angles
+dynamics::VectorQ RestingQ(const dynamics::Model& model, double height_m) {
+  const dynamics::LegKinematics legs(model);
+  dynamics::VectorQ q = model.StandingQ();
+  q(2) = height_m;
+  dynamics::IkStatus status = dynamics::IkStatus::kOk;
+  for (int leg = 0; leg < dynamics::kNumFeet; ++leg) {
+    const Eigen::Vector3d q_leg = model.q_standing.segment<dynamics::kJointsPerLeg>(3 * leg);
+    dynamics::FootMotion foot;
+    foot.p_BF_B = legs.Foot(leg, q_leg);
+    foot.p_BF_B.z() = model.feet[leg].radius_m - height_m;
+    dynamics::LegJointMotion j;
+    const dynamics::IkStatus st = legs.Solve(leg, foot, q_leg, &j);
+    if (st != dynamics::IkStatus::kOk && status == dynamics::IkStatus::kOk) status = st;
+    q.segment<dynamics::kJointsPerLeg>(7 + 3 * leg) = j.q;
+  }
+  if (status != dynamics::IkStatus::kOk)
+    throw hal::ConfigError("simulated robot: start height " + std::to_string(height_m) +
+                           " m: expected a height the legs reach with the feet on the ground, found " +
+                           dynamics::ToString(status));
+  return q;
+}
+
+}  // namespace
 
 /// The device side of one bus, counting the SYNCs that arrive (even those the emulator ignores,
 /// e.g. while its bus is off), so that lock-step follows the master's SYNCs on the wire.
@@ -87,19 +109,7 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
   }
   gyro_bias_ = cfg.gyro_bias_rad_s + cfg.profile.GyroBias();
   accel_bias_ = cfg.accel_bias_m_s2 + cfg.profile.AccelBias();
-  q_hold_ = model.StandingQ();
-  if (cfg.start_height_m > 0.0) {
-    // the resting posture: the standing feet's places, the base lowered, by the legs' IK
-    servo::Reference rest = servo::Reference::Stand(model, cfg.start_height_m);
-    servo::ReferenceSample s;
-    rest.Sample(0.0, &s);
-    if (s.ik != dynamics::IkStatus::kOk)
-      throw hal::ConfigError("simulated robot: start height " + std::to_string(cfg.start_height_m) +
-                             " m: expected a height the legs reach with the feet on the ground, found " +
-                             dynamics::ToString(s.ik));
-    q_hold_(2) = cfg.start_height_m;
-    q_hold_.tail<dynamics::kNumJoints>() = s.joints.q;
-  }
+  q_hold_ = cfg.start_height_m > 0.0 ? RestingQ(model, cfg.start_height_m) : model.StandingQ();
   plant_->Reset(q_hold_, dynamics::VectorV::Zero());
   actuation_->Reset(q_hold_.tail<dynamics::kNumJoints>());
   R_BF_ = model.imu.R_BF;
@@ -181,16 +191,11 @@ void SimulatedRobot::Step() noexcept {
   bool all_enabled = true, commanding = false;
   constexpr double kReleaseTorqueNm = 0.0;  // any non-zero set-point (1 mN·m resolution)
   dynamics::VectorJ u;
-  if (bus_thread_owns_emulator_) {
-    SetpointFrame f;
-    while (setpoint_frames_.TryPop(&f)) setpoints_ = f;  // the newest the boards hold
+  if (bus_ != nullptr) {
+    bus_->TakeNewestSetpoints(&setpoints_);  // the newest the boards hold
   } else {
     ApplyFaults(time_s());
-    for (int j = 0; j < dynamics::kNumJoints; ++j) {
-      const auto i = static_cast<std::size_t>(j);
-      setpoints_.tau[i] = emulator_->torque_setpoint_Nm(j);
-      setpoints_.enabled[i] = emulator_->outputs_enabled(j);
-    }
+    setpoints_ = BoardSetpoints();
   }
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     const auto i = static_cast<std::size_t>(j);
@@ -269,14 +274,28 @@ void SimulatedRobot::UpdateSensors() noexcept {
   imu_reported_ = r;
   f.gyro = {r.gyro_rad_s(0), r.gyro_rad_s(1), r.gyro_rad_s(2)};
   f.accel = {r.specific_force_m_s2(0), r.specific_force_m_s2(1), r.specific_force_m_s2(2)};
-  if (bus_thread_owns_emulator_) {
-    (void)sensor_frames_.TryPush(f);  // full: the bus thread is stalled; it takes the next step's
+  if (bus_ != nullptr) {
+    bus_->GiveSensors(f);
     return;
   }
-  SetEmulatorSensors(f);
+  SetBoardSensors(f);
 }
 
-void SimulatedRobot::SetEmulatorSensors(const SensorFrame& f) noexcept {
+SetpointFrame SimulatedRobot::BoardSetpoints() const noexcept {
+  SetpointFrame f;
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    f.tau[i] = emulator_->torque_setpoint_Nm(j);
+    f.enabled[i] = emulator_->outputs_enabled(j);
+  }
+  return f;
+}
+
+int SimulatedRobot::channel_poll_fd(std::size_t b) const noexcept {
+  return channels_[b]->poll_fd();
+}
+
+void SimulatedRobot::SetBoardSensors(const SensorFrame& f) noexcept {
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     const auto i = static_cast<std::size_t>(j);
     emulator_->SetJointState(j, f.q[i], f.v[i], f.tau[i]);
@@ -330,55 +349,6 @@ std::uint64_t SimulatedRobot::RunLockStep(const std::atomic<bool>& stop, double 
   return counters_.steps - start;
 }
 
-void SimulatedRobot::RunBusThread(const std::atomic<bool>& stop, const BusThreadConfig& bus) noexcept {
-  if (bus.setup) bus.setup();
-  std::array<pollfd, hal::kMaxBuses> fds{};
-  nfds_t n = 0;
-  for (const auto& c : channels_)
-    if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
-  // at least every millisecond: the boards' own timers (the set-point watchdog, heartbeats) run
-  // when nothing arrives, e.g. after the master died
-  constexpr int kTimeoutMs = 1;
-  std::uint64_t seen = 0;
-  std::int64_t last = MonotonicNs();
-  while (!stop.load(std::memory_order_relaxed)) {
-    if (n > 0) {
-      if (poll(fds.data(), n, kTimeoutMs) < 0 && errno != EINTR) break;
-    } else {
-      const timespec ms{0, 1'000'000};
-      nanosleep(&ms, nullptr);
-    }
-    const std::int64_t now = MonotonicNs();
-    bus_gap_.Add(now - last);
-    // the newest sensor values the stepping thread handed over, the faults due (at their
-    // simulated time), the answers. The boards are hardware: their clocks (heartbeats, the
-    // set-point watchdog) are the wall clock, as the master's is. On the simulated time, a
-    // stepping thread catching up after a stall of its core (up to kMaxCatchUp steps at once)
-    // moved them 9 ms in 0.3 ms, and a board whose last set-point came just before tripped on a
-    // master that had never been late (seen in a 60 s real-time run)
-    SensorFrame f;
-    bool fresh = false;
-    while (sensor_frames_.TryPop(&f)) fresh = true;
-    if (fresh) SetEmulatorSensors(f);
-    ApplyFaults(1e-9 * static_cast<double>(sim_now_ns_.load(std::memory_order_relaxed)));
-    Poll(MonotonicNs());
-    SetpointFrame out;
-    for (int j = 0; j < dynamics::kNumJoints; ++j) {
-      const auto i = static_cast<std::size_t>(j);
-      out.tau[i] = emulator_->torque_setpoint_Nm(j);
-      out.enabled[i] = emulator_->outputs_enabled(j);
-    }
-    (void)setpoint_frames_.TryPush(out);  // full: the stepping thread is stalled; the next one
-    last = MonotonicNs();
-    bus_poll_time_.Add(last - now);
-    // a SYNC answered while the step that was due is more than a period late: the answer is
-    // the latest state there is, the physics stood still meanwhile
-    const std::uint64_t new_syncs = NoteNewSyncs(now, &seen);
-    if (new_syncs > 0 && now - step_due_ns_.load(std::memory_order_relaxed) > period_ns_)
-      counters_.stale_answers += new_syncs;
-  }
-}
-
 std::uint64_t SimulatedRobot::NoteNewSyncs(std::int64_t now_ns, std::uint64_t* seen) noexcept {
   std::uint64_t syncs = 0;
   for (std::size_t b = 0; b < channels_.size(); ++b) syncs = std::max(syncs, counters_.syncs[b]);
@@ -386,90 +356,6 @@ std::uint64_t SimulatedRobot::NoteNewSyncs(std::int64_t now_ns, std::uint64_t* s
   if (fresh > 0) last_sync_ns_.store(now_ns, std::memory_order_relaxed);
   *seen = syncs;
   return fresh;
-}
-
-std::uint64_t SimulatedRobot::RunRealTime(const std::atomic<bool>& stop, double duration_s,
-                                          const BusThreadConfig& bus) {
-  const int tfd = timerfd_create(CLOCK_MONOTONIC, TFD_NONBLOCK | TFD_CLOEXEC);
-  if (tfd < 0) throw std::runtime_error("simulated robot: timerfd_create failed");
-  // one-shot absolute deadlines, each set after the last step: the phase lock moves them
-  const auto arm = [tfd](std::int64_t at_ns) {
-    itimerspec its{};
-    its.it_value = {static_cast<time_t>(at_ns / 1'000'000'000), static_cast<long>(at_ns % 1'000'000'000)};
-    return timerfd_settime(tfd, TFD_TIMER_ABSTIME, &its, nullptr) == 0;
-  };
-  const std::int64_t t0 = MonotonicNs() + period_ns_;
-  if (!arm(t0)) {
-    close(tfd);
-    throw std::runtime_error("simulated robot: timerfd_settime failed");
-  }
-  const SyncPhaseLock lock{.period_ns = period_ns_, .phase_ns = cfg_.sync_phase_ns};
-  std::array<pollfd, hal::kMaxBuses + 1> fds{};
-  nfds_t n = 0;
-  fds[n++] = {tfd, POLLIN, 0};
-  if (!bus.enabled)
-    for (const auto& c : channels_)
-      if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
-  step_due_ns_.store(t0, std::memory_order_relaxed);
-  last_sync_ns_.store(0, std::memory_order_relaxed);
-  // behind after a stall (of this host, not of the boards), the boards answer only the newest
-  // SYNC: the master discards answers to older ones, and each costs a datagram per board
-  emulator_->SetAnswerNewestSyncOnly(true);
-  std::atomic<bool> bus_stop{false};
-  std::thread bus_thread;
-  if (bus.enabled) {
-    bus_thread_owns_emulator_ = true;
-    bus_thread = std::thread([&] { RunBusThread(bus_stop, bus); });
-  }
-  const auto end_steps = duration_s > 0
-                             ? static_cast<std::uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(period_ns_)))
-                             : UINT64_MAX;
-  const std::uint64_t start = counters_.steps;
-  std::int64_t due_ns = t0;  // when the next step is due
-  std::uint64_t syncs_seen = 0;
-  // without the bus thread, this thread answers: it notes when a new SYNC came, for the lock
-  const auto poll_answering = [&](std::int64_t now) {
-    Poll(now);
-    (void)NoteNewSyncs(now, &syncs_seen);
-  };
-  while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps) {
-    // channels without an fd (loopback) are polled at least every period
-    if (poll(fds.data(), n, n > 1 || bus.enabled ? 50 : 1) < 0 && errno != EINTR) break;
-    if (!bus.enabled) poll_answering(MonotonicNs());  // answer SYNCs with the latest state
-    std::uint64_t fired = 0;
-    if (read(tfd, &fired, sizeof fired) != static_cast<ssize_t>(sizeof fired) || fired == 0) continue;
-    // the periods due by now: a late wake catches up (at most kMaxCatchUp steps at once),
-    // counted as overruns; the SYNCs that arrive meanwhile are answered between the steps, with
-    // the latest state
-    const std::int64_t woke = MonotonicNs();
-    const auto due = static_cast<std::uint64_t>(std::max<std::int64_t>(woke - due_ns, 0) / period_ns_) + 1;
-    counters_.realtime_overruns += due - 1;
-    const std::uint64_t steps = std::min<std::uint64_t>({due, kMaxCatchUp, end_steps - counters_.steps});
-    for (std::uint64_t i = 0; i < steps; ++i) {
-      const std::int64_t begin = MonotonicNs();
-      step_lateness_.Add(begin - due_ns);
-      if (begin - due_ns > period_ns_) ++counters_.late_steps;
-      const std::int64_t sync = last_sync_ns_.load(std::memory_order_relaxed);
-      if (lock.Active(sync, begin)) sync_phase_error_.Add(std::abs(lock.Error(begin, sync)));
-      Step();
-      const std::int64_t end = MonotonicNs();
-      step_time_.Add(end - begin);
-      if (!bus.enabled) poll_answering(end);
-      due_ns += period_ns_;
-    }
-    if (due > steps) {  // periods given up: the simulated time falls behind
-      counters_.dropped_steps += due - steps;
-      due_ns += static_cast<std::int64_t>(due - steps) * period_ns_;
-    }
-    due_ns += lock.Correction(due_ns, last_sync_ns_.load(std::memory_order_relaxed), MonotonicNs());
-    step_due_ns_.store(due_ns, std::memory_order_relaxed);
-    if (!arm(due_ns)) break;
-  }
-  bus_stop.store(true, std::memory_order_relaxed);
-  if (bus_thread.joinable()) bus_thread.join();
-  bus_thread_owns_emulator_ = false;
-  close(tfd);
-  return counters_.steps - start;
 }
 
 }  // namespace hyq::sim

@@ -6,7 +6,7 @@
 #include <array>
 #include <cstdint>
 
-namespace hyq::servo {
+namespace hyq::hal {
 
 class LatencyHistogram {
  public:
@@ -44,4 +44,4 @@ class LatencyHistogram {
   double sum_ = 0.0;
 };
 
-}  // namespace hyq::servo
+}  // namespace hyq::hal

@@ -17,7 +17,7 @@ struct mjData_;
 
 namespace hyq::sim {
 
-/// A rectangle of the ground with a friction of its own (issue 18: an icy patch), world x-y, m.
+/// A rectangle of the ground with a friction of its own (e.g. an icy patch), world x-y, m.
 /// Where patches overlap, the first one listed wins.
 struct GroundPatch {
   double x0_m = 0.0, x1_m = 0.0, y0_m = 0.0, y1_m = 0.0;
@@ -31,7 +31,7 @@ struct GroundPatch {
 /// the form expected and what was found.
 GroundPatch ParseGroundPatch(const std::string& text, const std::string& what);
 
-/// Model error (issue 15): the plant's bodies differ from the model the controller uses.
+/// Model error: the plant's bodies differ from the model the controller uses.
 struct ModelErrorConfig {
   /// A rigid point mass fixed to the trunk (kg; position in the trunk frame, m), lumped into the
   /// trunk's inertia (parallel axis). 0 kg: none.
@@ -124,7 +124,7 @@ class Plant {
   /// The friction coefficient the foot has now: its patch's, or the one SetFootFriction set.
   double foot_friction(int foot) const;
   /// The ground's friction at world (x, y) for this foot: the first patch there, else the
-  /// foot's own (the oracle of issue 18's experiment).
+  /// foot's own (the experiment's oracle μ).
   double FrictionAt(int foot, double x, double y) const;
 
   /// The generated MJCF (for inspection and for MuJoCo's own tools).

@@ -11,7 +11,7 @@
 #include <string>
 #include <type_traits>
 
-namespace hyq::servo {
+namespace hyq::hal {
 
 /// Cache-line size used to keep the producer's and the consumer's indices apart.
 inline constexpr std::size_t kCacheLineBytes = 64;
@@ -91,4 +91,4 @@ class SpscRing {
   alignas(kCacheLineBytes) char pad_[1] = {};
 };
 
-}  // namespace hyq::servo
+}  // namespace hyq::hal

@@ -4,7 +4,7 @@
 // hyq-sim steps its physics once per period on a timer of its own; left free, its phase to the
 // daemon's SYNC is whatever the start-up gave, and a set-point that arrives just after the step
 // it was meant for waits a whole further step: the loop's delay is then 1 or 2 ms by chance,
-// run to run (docs/benchmarks.md, issue 17: one extra millisecond is what rings a knee at a
+// run to run (docs/benchmarks.md: one extra millisecond is what rings a knee at a
 // trot's touchdown, in lock-step with --delay-cycles 1 as in those real-time runs). Locked, a
 // step begins `phase_ns` after each SYNC, when the set-point computed for it has arrived, as in
 // lock-step (a step per SYNC, the newest set-point applied).

@@ -1,4 +1,4 @@
-#include "tools/sim/plant_profile.h"
+#include "sim/plant_profile.h"
 
 #include <algorithm>
 #include <cmath>
