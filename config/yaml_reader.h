@@ -109,7 +109,7 @@ class Reader {
 
   // Unknown keys and keys given twice are errors (yaml-cpp keeps the first of two silently).
   void Keys(const YAML::Node& map, const std::string& path,
-            std::initializer_list<const char*> allowed) const {
+            const std::vector<const char*>& allowed) const {
     std::vector<std::pair<std::string, int>> seen;
     for (const auto& kv : map) {
       const std::string k = kv.first.as<std::string>();

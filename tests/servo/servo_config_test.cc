@@ -113,14 +113,14 @@ TEST(ServoConfigYaml, EveryDeadlineKeyReachesDeadlineConfig) {
   EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").deadline.stop_in_lockstep);
 }
 
-// issue 17: the real-time read's wait for answers still owed, in periods (at most half of one),
-// so that it scales with the rate
+// the real-time read's wait for answers still owed, in periods (at most half of one), so that it
+// scales with the rate
 TEST(ServoConfigYaml, AnswerWaitIsAFractionOfThePeriod) {
-  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0.25\n").answer_wait_s, 250e-6);
-  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 800\n  answer_wait_periods: 0.25\n").answer_wait_s, 312.5e-6);
-  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 500\n").answer_wait_s, 600e-6);  // the default 0.3
-  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0\n").answer_wait_s, 0.0);
-  EXPECT_DOUBLE_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").answer_wait_s, 300e-6);
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0.25\n").answer_wait_s(), 250e-6);
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 800\n  answer_wait_periods: 0.25\n").answer_wait_s(), 312.5e-6);
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 500\n").answer_wait_s(), 600e-6);  // the default 0.3
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0\n").answer_wait_s(), 0.0);
+  EXPECT_DOUBLE_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").answer_wait_s(), 300e-6);
   try {
     (void)Parse("loop:\n  answer_wait_periods: 0.6\n");
     ADD_FAILURE() << "no error";
@@ -153,7 +153,7 @@ TEST(ServoConfigYaml, EveryOperationKeyReachesServoConfig) {
   EXPECT_DOUBLE_EQ(shipped.sit_damping_max_s, 5.0);
 }
 
-// every controller's gains (issue 15: the tuned ones live in the shipped files)
+// every controller's gains (the tuned ones live in the shipped files)
 TEST(ServoConfigYaml, EveryGainKeyReachesControllerConfig) {
   const std::string robot = "robot:\n  urdf: robots/hyq.urdf\n  hal: hyq_hal.yaml\n";
   const servo::ServoConfig c = config::ParseServoConfig(robot + R"(controller:
@@ -199,7 +199,8 @@ telemetry:
   EXPECT_DOUBLE_EQ(robot_cc.swing_gain_scale, 1.0);
   EXPECT_DOUBLE_EQ(robot_cc.pid_swing_gain_scale, 1.0);
   EXPECT_DOUBLE_EQ(robot_cc.pdg_swing_gain_scale, 1.0);
-  // the simulation's: the IDs' swing legs at 0.3 (issue 17), the baselines' untouched
+  // the simulation's: the IDs' swing legs at 0.3 (they ring behind the actuator's lag), the
+  // baselines' untouched
   const servo::ControllerConfig sim_cc = config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").controller;
   EXPECT_DOUBLE_EQ(sim_cc.swing_gain_scale, 0.3);
   EXPECT_DOUBLE_EQ(sim_cc.pid_swing_gain_scale, 1.0);
@@ -368,7 +369,7 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
   const std::string twice = message("commands:\n  max_rate_hz: 5\n  enabled: true\n  max_rate_hz: 50\n");
   EXPECT_NE(twice.find("commands.max_rate_hz"), std::string::npos) << twice;
   EXPECT_NE(twice.find("a second time (first on line"), std::string::npos) << twice;
-  // one policy for late or missing inputs (#17): the safety layer's old key names the HAL's
+  // one policy for late or missing inputs: the safety layer's old key names the HAL's
   const std::string held = message("safety:\n  max_missing_cycles: 20\n");
   EXPECT_NE(held.find("safety.max_missing_cycles"), std::string::npos) << held;
   EXPECT_NE(held.find("timing.max_held_cycles"), std::string::npos) << held;
@@ -384,7 +385,7 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
   EXPECT_NE(ctrl.find("commands.allowed_controllers[1]"), std::string::npos) << ctrl;
   EXPECT_NE(ctrl.find("warp"), std::string::npos) << ctrl;
 
-  // finding 8: URLs liblcm would take or fail on late, and channel names it reads as patterns
+  // URLs liblcm would take or fail on late, and channel names it reads as patterns
   const struct {
     const char* yaml;
     const char* message;
