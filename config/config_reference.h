@@ -105,7 +105,7 @@ class MarkdownArchive {
     } else if constexpr (std::is_enum_v<T>) {
       return ChoiceNames(k.choices);
     } else if constexpr (std::is_integral_v<T>) {
-      if (!k.choices.empty() && std::isinf(k.min)) return ChoiceNames(k.choices);
+      if (!k.choices.empty() && std::isinf(k.min)) return *k.elements ? k.elements : ChoiceNames(k.choices);
       std::string s = "integer" + Range(k.min, k.max, 0, true);
       for (const auto& c : k.choices) s.append(" or ").append(c.name);
       return s;

@@ -154,16 +154,16 @@ class YamlArchive {
     if (n.IsDefined()) {
       ReadValue(n, p, k);
     } else if (k.required) {
-      r_.Fail(map_, p, TypeExpectation<T>(), "nothing (the key is missing)");
+      const bool list = std::string_view(TypeExpectation<T>()) == "a list" && *k.elements;
+      r_.Fail(map_, p, list ? std::string("a list of ") + k.elements : TypeExpectation<T>(),
+              "nothing (the key is missing)");
     }
     if (k.check) {
       if (const auto v = k.check(*k.value)) {
-        YAML::Node at = n;
-        std::string ap = p;
-        if (v->index >= 0) {
-          ap += "[" + std::to_string(v->index) + "]";
-          if (n.IsDefined() && n.IsSequence()) at = n[static_cast<std::size_t>(v->index)];
-        }
+        // the element at fault, when the check names one (a copy binds; assigning would not)
+        const bool element = v->index >= 0 && n.IsDefined() && n.IsSequence();
+        const YAML::Node at = element ? n[static_cast<std::size_t>(v->index)] : n;
+        const std::string ap = v->index >= 0 ? p + "[" + std::to_string(v->index) + "]" : p;
         r_.Fail(at, ap + v->part, v->expected,
                 at.IsDefined() ? Describe(at) : DescribeDefault(*k.value));
       }
@@ -197,7 +197,8 @@ class YamlArchive {
     return n.Scalar();
   }
 
-  // a map from an element's name to its interface, replacing the element's
+  // the servo file's bus interfaces: a map from a bus name to its interface, replacing the HAL
+  // file's
   template <class S>
   void ReadByName(const YAML::Node& n, const std::string& p, std::vector<S>& v) const {
     if (!n.IsMap()) r_.Fail(n, p, "a map from a name to an interface", Describe(n));
@@ -212,7 +213,7 @@ class YamlArchive {
       if (!found) {
         std::string names;
         for (const auto& e : v) names += (names.empty() ? "" : ", ") + e.name;
-        r_.Fail(kv.first, p + "." + name, "the name of one of them (" + names + ")", "'" + name + "'");
+        r_.Fail(kv.first, p + "." + name, "a bus of the HAL file (" + names + ")", "'" + name + "'");
       }
     }
   }
@@ -239,7 +240,7 @@ class YamlArchive {
           return;
         }
       if (!k.choices.empty() && std::isinf(k.min))  // names only
-        r_.Fail(n, p, ChoiceList(k.choices), Describe(n));
+        r_.Fail(n, p, *k.elements ? std::string(k.elements) : ChoiceList(k.choices), Describe(n));
       const auto lo = std::isinf(k.min) ? static_cast<long long>(std::numeric_limits<T>::min())
                                         : static_cast<long long>(k.min);
       const auto hi = std::isinf(k.max) ? static_cast<long long>(std::numeric_limits<T>::max())
@@ -325,8 +326,9 @@ class YamlArchive {
           return;
         }
       }
-      if (!n.IsSequence() || (k.non_empty && n.size() == 0))
-        r_.Fail(n, p, k.non_empty ? "a non-empty list of maps" : "a list of maps", Describe(n));
+      const std::string list = std::string(k.non_empty ? "a non-empty list of " : "a list of ") +
+                               (*k.elements ? k.elements : "maps");
+      if (!n.IsSequence() || (k.non_empty && n.size() == 0)) r_.Fail(n, p, list, Describe(n));
       v.clear();
       for (std::size_t i = 0; i < n.size(); ++i) {
         const std::string ep = p + "[" + std::to_string(i) + "]";

@@ -89,7 +89,8 @@ struct Key {
     broadcast = true;
     return *this;
   }
-  /// What a list's elements are, as the messages and the docs name them: "(lf, rf, lh, rh)".
+  /// What a list's elements are, as the messages and the docs name them: "(lf, rf, lh, rh)",
+  /// "buses"; for a key of names only, what the names are ("a joint name ...").
   Key& Elements(const char* e) {
     elements = e;
     return *this;

@@ -43,11 +43,12 @@ struct DeviceConfig {
                  .Doc("a joint's actuator board or the IMU"));
     a->Visit(Key("node_id", &node_id).Required().In(1, 127).Doc("CANopen node id, unique on its bus"));
     a->Visit(Key("joint", &joint).Required(kind == DeviceKind::kActuator).Choices(JointChoices())
+                 .Elements("a joint name {lf,rf,lh,rh}_{haa,hfe,kfe}_joint")
                  .Check([this](const int& j) -> std::optional<Violation> {
                    if (kind == DeviceKind::kImu && j >= 0) return Violation{"no joint for an IMU"};
                    return std::nullopt;
                  })
-                 .Doc("an actuator's joint, {lf,rf,lh,rh}_{haa,hfe,kfe}_joint; none for the IMU"));
+                 .Doc("an actuator's joint; none for the IMU"));
   }
 };
 
@@ -69,7 +70,8 @@ struct BusConfig {
                  .Unit("bit/s").Doc("arbitration phase"));
     a->Visit(Key("data_bitrate", &data_bitrate).Required(fd).In(10'000, 12'000'000)
                  .Unit("bit/s").Doc("FD data phase (required with fd)"));
-    a->Visit(Key("devices", &devices).Required().NonEmpty().Doc("the bus's devices"));
+    a->Visit(Key("devices", &devices).Required().NonEmpty().Elements("devices")
+                 .Doc("the bus's devices"));
   }
 };
 
@@ -134,7 +136,8 @@ struct HalConfig {
                  .Doc("refuse a layout whose worst-case load per cycle exceeds this (1 = 100 %)"));
     a->Visit(Key("heartbeats_in_worst_case", &heartbeats_in_worst_case)
                  .Doc("count every heartbeat landing in the same cycle"));
-    a->Visit(Key("buses", &buses).Required().NonEmpty().Doc("the CAN buses and their devices"));
+    a->Visit(Key("buses", &buses).Required().NonEmpty().Elements("buses")
+                 .Doc("the CAN buses and their devices"));
     a->Visit(Key("joints", &joints).Required()
                  .Doc("each joint's calibration: actuator, encoder, sensor, range (docs/hal.md)"));
   }

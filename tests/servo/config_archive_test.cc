@@ -8,6 +8,8 @@
 #include <string>
 
 #include "config/config_reference.h"
+#include "config/hal_config_loader.h"
+#include "config/servo_config_loader.h"
 #include "config/yaml_archive.h"
 #include "hal/config_error.h"
 #include "servo/runtime/deadline_monitor.h"
@@ -65,6 +67,22 @@ TEST(ConfigArchive, AKeyAddedInSerializeIsReadBoundedCheckedAndDocumented) {
   EXPECT_NE(table.find("| `grace_s` | number in [0, 1] | 0.25 | s | a test-only key |"),
             std::string::npos) << table;
   EXPECT_EQ(config::KeyTable<servo::DeadlineConfig>().find("grace_s"), std::string::npos);
+}
+
+// the loop period is stored once, in the HAL's timing: the servo file's rate replaces the HAL
+// file's period, and without a rate the HAL file's period is the loop's
+TEST(ConfigArchive, ThePeriodIsStoredOnce) {
+  const auto dir = testing::SourceDir() / "config";
+  const std::string robot = "robot:\n  urdf: robots/hyq.urdf\n  hal: hyq_hal.yaml\n"
+                            "controller:\n  gains:\n    kp_tau: 100\n";
+  const servo::ServoConfig at500 =
+      config::ParseServoConfig(robot + "loop:\n  rate_hz: 500\n", "test.yaml", dir);
+  EXPECT_DOUBLE_EQ(at500.hal.timing.cycle_period_s, 0.002);
+  EXPECT_DOUBLE_EQ(at500.period_s(), 0.002);
+  EXPECT_DOUBLE_EQ(at500.rate_hz(), 500.0);
+  const servo::ServoConfig from_hal = config::ParseServoConfig(robot, "test.yaml", dir);
+  EXPECT_DOUBLE_EQ(from_hal.period_s(), config::LoadHalConfig(dir / "hyq_hal.yaml").timing.cycle_period_s);
+  EXPECT_EQ(config::LoadServoConfig(dir / "hyq_servo.yaml").rate_hz(), 1000.0);
 }
 
 TEST(ConfigArchive, DocsTableIsTheGeneratedOne) {
