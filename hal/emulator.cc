@@ -373,24 +373,29 @@ Emulator::Device* Emulator::JointDevice(int joint) noexcept {
   return const_cast<Device*>(std::as_const(*this).JointDevice(joint));
 }
 
-void Emulator::SetJointState(int joint, double position_rad, double velocity_rad_s,
-                             double torque_Nm) noexcept {
+template <class EffortCounts>
+void Emulator::SetJointCounts(int joint, double position_rad, double velocity_rad_s,
+                              const EffortCounts& effort_counts) noexcept {
   Device* d = JointDevice(joint);
   if (d == nullptr) return;
   const JointCalibration& c = config_.joints[static_cast<std::size_t>(joint)];
   d->position_counts = RadToEncoderCounts(c, position_rad);
   d->velocity_counts_s = RadPerSecToEncoderRate(c, velocity_rad_s);
-  d->effort_counts = TorqueToEffortCounts(c, torque_Nm, position_rad);
+  d->effort_counts = effort_counts(c);
+}
+
+void Emulator::SetJointState(int joint, double position_rad, double velocity_rad_s,
+                             double torque_Nm) noexcept {
+  SetJointCounts(joint, position_rad, velocity_rad_s, [&](const JointCalibration& c) {
+    return TorqueToEffortCounts(c, torque_Nm, position_rad);
+  });
 }
 
 void Emulator::SetJointSensor(int joint, double position_rad, double velocity_rad_s,
                               double sensor_value) noexcept {
-  Device* d = JointDevice(joint);
-  if (d == nullptr) return;
-  const JointCalibration& c = config_.joints[static_cast<std::size_t>(joint)];
-  d->position_counts = RadToEncoderCounts(c, position_rad);
-  d->velocity_counts_s = RadPerSecToEncoderRate(c, velocity_rad_s);
-  d->effort_counts = SensorValueToEffortCounts(c, sensor_value);
+  SetJointCounts(joint, position_rad, velocity_rad_s, [&](const JointCalibration& c) {
+    return SensorValueToEffortCounts(c, sensor_value);
+  });
 }
 
 void Emulator::SetImu(const std::array<double, 3>& gyro_rad_s,

@@ -171,6 +171,10 @@ class Emulator {
   // joint's board, nullptr when `joint` is out of range or has none
   Device* JointDevice(int joint) noexcept;
   const Device* JointDevice(int joint) const noexcept;
+  // what joint's board reports: (q, q̇) as encoder counts and effort_counts(its calibration)
+  template <class EffortCounts>
+  void SetJointCounts(int joint, double position_rad, double velocity_rad_s,
+                      const EffortCounts& effort_counts) noexcept;
   void HandleFrame(BusState& b, const CanFrame& f, bool answer_sync) noexcept;
   void OnSync(BusState& b, std::uint8_t counter, bool answer) noexcept;
   void Answer(BusState& b, Device& d, std::uint8_t counter) noexcept;

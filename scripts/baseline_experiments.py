@@ -1,34 +1,35 @@
 #!/usr/bin/python3
-"""Issue 15's comparison through the loop: the four controllers with their own tuned gains on the
-plant variants, trot and Figure-Eight, several seeds (docs/baselines.md quotes the output).
+"""The baselines through the loop: the four controllers with their own tuned gains on the plant
+variants, trot and Figure-Eight, several seeds (docs/baselines.md quotes the output).
 
     /usr/bin/python3 scripts/baseline_experiments.py [--out DIR] [--tuning FILE] [--seeds 1,2,3]
         [--mu 0.1[,1.0]] [--mu1-variants ideal,realistic] [--variants ideal,...]
         [--controllers LIST] [--quick] [--build DIR] [--all] [--tables-only]
 
---all regenerates every table and figure of issue 15 with this one command: these runs, three
-runs for DIR/delay_evidence.png (why one cycle of delay faults on the lag plant), then the
-in-process runs of docs/experiments.md (hyq-experiment --all with the tuned gains and with
---gains untuned, and the paper's scenarios on --profile realistic) into DIR/inprocess*/, and
-docs/hil_experiments.md's runs (scripts/hil_experiments.py) into DIR/hil-experiments/.
+--all regenerates every table and figure of docs/baselines.md with this one command: these
+runs, three runs for DIR/delay_evidence.png (why one cycle of delay faults on the lag plant),
+then the in-process runs of docs/experiments.md (hyq-experiment --all with the tuned gains and
+with --gains untuned, and the paper's scenarios on --profile realistic) into DIR/inprocess*/,
+and docs/hil_experiments.md's runs (scripts/hil_experiments.py) into DIR/hil-experiments/.
 
-Each run is scripts/hil.sh (hyq-sim + hyq-servod on the virtual buses, lock-step) with the shipped
-simulation configuration, the controller's gains from --tuning (scripts/tune_gains.py's
-tuning.json: each controller its own chosen gains) or, without it, the ones in
-config/hyq_servo_sim.yaml, and hyq-sim's arguments of the variant plus --seed. Judged as
-tune_gains.py judges: the mean tracking error over ACTIVE (servod.json), a fall while ACTIVE, a
-fault. Writes DIR/runs/<variant>_<ref>_mu<mu>_<ctrl>_s<seed>/, DIR/results.json, DIR/tables.md
+Each run is scripts/hil.sh (hyq-sim + hyq-servod on the virtual buses, lock-step; through
+scripts/hyq_runs.py, which lists the plant variants) with the shipped simulation configuration,
+the controller's gains from --tuning (scripts/tune_gains.py's tuning.json: each controller its
+own chosen gains) or, without it, the ones in config/hyq_servo_sim.yaml, and hyq-sim's arguments
+of the variant plus --seed. Judged as tune_gains.py judges (hyq_runs.judge): the mean tracking
+error over ACTIVE (servod.json), a fall while ACTIVE, a fault. Writes
+DIR/runs/<variant>_<ref>_mu<mu>_<ctrl>_s<seed>/, DIR/results.json, DIR/tables.md
 and DIR/baselines.png. Every number comes from these runs.
 """
 import argparse, json, math, os, re, statistics, subprocess, sys, time
 
-HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, os.path.join(HERE, "scripts"))
-import tune_gains  # noqa: E402  (the same configuration writer and judge)
+import hyq_runs
+import tune_gains  # the same configuration writer
 
-REFS = {"trot": ("trot", 5.0), "eight": ("figure_eight", 5.0)}
-CTRLS = ["pid", "pd_gravity", "noslip", "two_stage"]
-# with the trunk's disturbance observer in the model (controller.disturbance_observer, issue 15):
+HERE = hyq_runs.HERE
+DURATION_S = 5.0  # of each reference
+CTRLS = hyq_runs.CONTROLLERS
+# with the trunk's disturbance observer in the model (controller.disturbance_observer):
 # "<controller>+dob", the controller's own tuned gains
 DOB = "+dob"
 # with integral action in the ID controllers' feedback (controller.gains.ki_tau, i_limit_tau):
@@ -39,37 +40,21 @@ INT = "+int"
 KI_TAU, I_LIMIT_TAU = 1000.0, 100.0
 # with lower feedback gains on swing legs (controller.gains.swing_scale for the IDs, pid_swing_scale,
 # pdg_swing_scale): "<controller>+swing"; 0.3 brings the tuned kd 28 on a swing leg to the untuned 8
-# that held the real-time runs of 2026-12-02 (docs/benchmarks.md). The shipped sim configuration
-# has the IDs' 0.3 since issue 17 (so "two_stage+swing" is "two_stage" now); "+noswing" sets the
-# controller's scale to 1.0 (off)
+# that held the real-time runs (docs/benchmarks.md). The shipped sim configuration has the IDs'
+# 0.3 (so "two_stage+swing" is "two_stage"); "+noswing" sets the controller's scale to 1.0 (off)
 SWING = "+swing"
 SWING_SCALE = 0.3
 NOSWING = "+noswing"
 SWING_KEY = {"pid": "pid_swing_scale", "pd_gravity": "pdg_swing_scale"}  # the rest: swing_scale
+# the plant variants (hyq_runs.PLANTS: hyq-sim's arguments of each), each run on every seed if
+# the seed draws something in it, else once (seed 1)
+VARIANTS = ["ideal", "payload", "payload_3kg", "link_errors", "joint_friction", "delay", "biases",
+            "hydraulics", "realistic_no_hydraulics", "realistic"]
 
 
 def base_of(ctrl):
     """'two_stage+dob+int' -> 'two_stage'."""
     return ctrl.split("+")[0]
-# name -> hyq-sim arguments (without --seed; "{seed}" is the run's seed). "ideal" is hyq-sim's
-# default plant; the others switch one factor of the realistic profile on at its level
-# (docs/simulation.md, "Plant profiles"), then all of them together. SEEDED: the variants in
-# which the seed draws something (link errors, sensor biases); the others are deterministic and
-# run once (seed 1).
-VARIANTS = {
-    "ideal": [],
-    "payload": ["--payload", "1,0.10,0.05,0.08"],
-    "payload_3kg": ["--payload", "3,0.10,0.05,0.08"],
-    "link_errors": ["--link-errors", "{seed}"],
-    "joint_friction": ["--joint-friction", "on"],
-    "delay": ["--delay-cycles", "1"],
-    "biases": ["--load-cell-bias", "1.0", "--imu-bias", "0.0035,0.05", "--bias-seed", "{seed}"],
-    "hydraulics": ["--hydraulics", "on"],
-    "realistic_no_hydraulics": ["--profile", "realistic", "--hydraulics", "off", "--link-errors", "{seed}",
-                                "--bias-seed", "{seed}"],
-    "realistic": ["--profile", "realistic", "--link-errors", "{seed}", "--bias-seed", "{seed}"],
-}
-SEEDED = {"link_errors", "biases", "realistic_no_hydraulics", "realistic"}
 
 
 def chosen_gains(tuning_path):
@@ -132,7 +117,7 @@ def main():
     ap.add_argument("--variants", default=",".join(VARIANTS), help=f"plant variants (default: {','.join(VARIANTS)})")
     ap.add_argument("--controllers", default=",".join(CTRLS), help=f"default: {','.join(CTRLS)}")
     ap.add_argument("--quick", action="store_true", help="seed 1 only, trot only")
-    ap.add_argument("--build", default=os.path.join(HERE, "build", "ci"))
+    ap.add_argument("--build", default=hyq_runs.DEFAULT_BUILD)
     ap.add_argument("--tables-only", action="store_true",
                     help="no runs: the tables and the figure again from DIR/results.json")
     a = ap.parse_args()
@@ -153,17 +138,17 @@ def main():
                 "int" in mods and base_of(c) not in ("noslip", "two_stage")):
             ap.error(f"--controllers: '{c}' is not one of {', '.join(CTRLS)} (each optionally +dob, "
                      "+swing or +noswing; the ID controllers also +int)")
-    refs = ["trot"] if a.quick else list(REFS)
+    refs = ["trot"] if a.quick else list(hyq_runs.REFERENCES)
     if a.quick:
         seeds = seeds[:1]
     gains = chosen_gains(a.tuning)
     os.makedirs(a.out, exist_ok=True)
     def seeds_of(v):
-        return seeds if v in SEEDED else seeds[:1]
+        return seeds if v in hyq_runs.SEEDED_PLANTS else seeds[:1]
     def mus_of(v):
         return mus + ([1.0] if v in mu1 and 1.0 not in mus and not a.quick else [])
     runs = [(v, r, mu, c, s) for v in variants for r in refs for mu in mus_of(v) for c in ctrls for s in seeds_of(v)]
-    results, t0 = {"gains": gains, "variants": {v: VARIANTS[v] for v in variants}, "runs": {}}, time.time()
+    results, t0 = {"gains": gains, "variants": {v: hyq_runs.PLANTS[v] for v in variants}, "runs": {}}, time.time()
     if a.tables_only:
         results = json.load(open(os.path.join(a.out, "results.json")))
         runs = []
@@ -172,9 +157,9 @@ def main():
         d = os.path.join(a.out, "runs", name)
         os.makedirs(d, exist_ok=True)
         cfg = config_for(d, a.build, c, gains)
-        ref, dur = REFS[r]
-        sim_args = ["--seed", str(s)] + [x.replace("{seed}", str(s)) for x in VARIANTS[v]]
-        res = tune_gains.run(a.build, d, base_of(c), cfg, sim_args, reference=ref, mu=mu, duration=dur)
+        res = hyq_runs.judge(hyq_runs.run(
+            d, base_of(c), build=a.build, reference=hyq_runs.REFERENCES[r], mu=mu, duration_s=DURATION_S,
+            servod_config=cfg, sim_args=["--seed", str(s)] + hyq_runs.plant_args(v, s)))
         results["runs"][name] = {"variant": v, "ref": r, "mu": mu, "ctrl": c, "seed": s, **res}
         eta = (time.time() - t0) / (k + 1) * (len(runs) - k - 1)
         err = f"{res['error']:.4f} rad" if "error" in res else "-"
@@ -185,7 +170,7 @@ def main():
     L = []
     for v in variants:
         for mu in mus_of(v):
-            L.append(f"\n### {v} plant, mu = {mu} (mean tracking error over ACTIVE, rad: mean ± sd over seeds {','.join(map(str, seeds_of(v)))}; hyq-sim {' '.join(VARIANTS[v]) or 'defaults'})\n")
+            L.append(f"\n### {v} plant, mu = {mu} (mean tracking error over ACTIVE, rad: mean ± sd over seeds {','.join(map(str, seeds_of(v)))}; hyq-sim {' '.join(hyq_runs.PLANTS[v]) or 'defaults'})\n")
             L.append("| scenario | " + " | ".join(ctrls) + " | two-stage vs PID | two-stage vs PD + g | two-stage + DOB vs two-stage | two-stage + integral vs two-stage | two-stage vs two-stage without swing gains |")
             L.append("|---|" + "---|" * (len(ctrls) + 5))
             for r in refs:
@@ -231,18 +216,13 @@ def delay_evidence(build, out, gains):
         d = os.path.join(out, "evidence", f"run{k}")
         os.makedirs(d, exist_ok=True)
         cfg = config_for(d, build, "two_stage", gains)
-        res = tune_gains.run(build, d, "two_stage", cfg, ["--seed", "1", "--truth-every", "1"] + extra)
+        res = hyq_runs.judge(hyq_runs.run(d, "two_stage", build=build, servod_config=cfg,
+                                          sim_args=["--seed", "1", "--truth-every", "1"] + extra))
         print(f"[evidence {k + 1}/{len(EVIDENCE)}] {label}: "
               f"{'stable' if res.get('stable') else res.get('why', '?')}", flush=True)
-        t, qd, tau = [], [], []
-        with open(os.path.join(d, "truth.csv")) as f:
-            head = f.readline().strip().split(",")
-            it, iq, iu = head.index("t"), head.index("qd_rf_kfe_joint"), head.index("tau_rf_kfe_joint")
-            for line in f:
-                x = line.split(",")
-                if 2.0 <= float(x[it]) <= 3.0:
-                    t.append(float(x[it])); qd.append(float(x[iq])); tau.append(float(x[iu]))
-        rows[label] = (t, qd, tau, res)
+        truth = hyq_runs.read_truth(d)
+        window = [k for k, t in enumerate(truth["t"]) if 2.0 <= t <= 3.0]
+        rows[label] = tuple([truth[c][k] for k in window] for c in ("t", "qd_rf_kfe_joint", "tau_rf_kfe_joint")) + (res,)
     try:
         import matplotlib
         matplotlib.use("Agg")

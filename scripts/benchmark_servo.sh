@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Servo benchmarks (issues #7, #8, #17), reproducing docs/benchmarks.md:
+# Servo benchmarks, reproducing docs/benchmarks.md:
 #   (a) real time at 1 kHz with the SHIPPED configuration (config/hyq_servo_sim.yaml and
 #       config/hyq_hal.yaml, nothing relaxed): hyq-sim --mode realtime (stepping thread
 #       SCHED_FIFO 70 on CPU 0, the boards' bus thread SCHED_FIFO 75 on the last CPU) +

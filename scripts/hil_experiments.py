@@ -1,6 +1,7 @@
 #!/usr/bin/python3
-"""The paper's mu = 0.1 experiments through the loop (issue #8): hyq-sim + hyq-servod on virtual
-CAN (scripts/hil.sh, lock-step), beside the in-process runs of hyq-experiment.
+"""The paper's mu = 0.1 experiments through the loop: hyq-sim + hyq-servod on virtual CAN
+(scripts/hil.sh, lock-step, through scripts/hyq_runs.py), beside the in-process runs of
+hyq-experiment.
 
     /usr/bin/python3 scripts/hil_experiments.py [--out DIR] [--quick] [--resume] [--build DIR]
 
@@ -12,153 +13,64 @@ scripts/tune_gains.py; hyq-experiment's default --gains tuned):
   - HIL ablations (seed 1): noise off; actuator lag off; both off.
 Writes DIR/runs/<name>/ (hil.sh output), DIR/results.json, and the markdown tables DIR/tables.md
 (docs/hil_experiments.md quotes them) and the figure DIR/hil_mu0.1.png (if matplotlib).
-Every number comes from these runs; nothing is hard-coded.
+Every number comes from these runs; nothing is hard-coded. The feet's slip speed comes from the
+plant's state (truth.csv) and tools/hyq-kinematics (the feet of the servo's own model).
 """
-import argparse, json, math, os, subprocess, sys, time
-import xml.etree.ElementTree as ET
+import argparse, json, math, os, subprocess
 
-HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-BUILD = os.path.join(HERE, "build", "ci")
+import hyq_runs
+
+HERE = hyq_runs.HERE
+BUILD = hyq_runs.DEFAULT_BUILD
 MU = 0.1
-LOAD_CELL_NOISE = "2"          # N*m at the joint, sigma
-IMU_NOISE = "0.01,0.1"         # gyro rad/s, accelerometer m/s^2, sigma
-ACT_TAU = "0.005"              # hyq-sim default, 5 ms
-REFS = {"trot": ("trot", 6.0), "eight": ("figure_eight", 0.5 + 4.0 + 0.5)}
-CTRLS = ["pid", "pd_gravity", "noslip", "two_stage"]
-VARIANTS = {  # name -> hyq-sim args
-    "full": ["--actuator-tau", ACT_TAU, "--load-cell-noise", LOAD_CELL_NOISE, "--imu-noise", IMU_NOISE],
-    "full_seed2": ["--actuator-tau", ACT_TAU, "--load-cell-noise", LOAD_CELL_NOISE, "--imu-noise", IMU_NOISE,
-                   "--seed", "2"],
-    "no_noise": ["--actuator-tau", ACT_TAU],
-    "no_lag": ["--actuator-tau", "0", "--load-cell-noise", LOAD_CELL_NOISE, "--imu-noise", IMU_NOISE],
-    "no_lag_no_noise": ["--actuator-tau", "0"],
+REFS = {"trot": 6.0, "eight": 0.5 + 4.0 + 0.5}  # ACTIVE time, s (the Figure-Eight's as hyq-experiment's)
+CTRLS = hyq_runs.CONTROLLERS
+# name -> (plant of hyq_runs.PLANTS, hyq-sim's seed or None for its default, 1)
+VARIANTS = {
+    "full": ("full", None),
+    "full_seed2": ("full", 2),
+    "no_noise": ("no_noise", None),
+    "no_lag": ("no_lag", None),
+    "no_lag_no_noise": ("no_lag_no_noise", None),
 }
-LEGS = ["lf", "rf", "lh", "rh"]
-FOOT_R = 0.02175
+LEGS = hyq_runs.LEGS
 
 
-# ---------- kinematics from the project's URDF (for the slip speed of truth.csv) ----------
-def mat_mul(a, b):
-    return [[sum(a[i][k] * b[k][j] for k in range(3)) for j in range(3)] for i in range(3)]
+def sim_args(variant):
+    plant, seed = VARIANTS[variant]
+    return hyq_runs.PLANTS[plant] + (["--seed", str(seed)] if seed is not None else [])
 
 
-def mat_vec(a, v):
-    return [sum(a[i][k] * v[k] for k in range(3)) for i in range(3)]
+def slip_from_truth(out, t0, t1):
+    """Mean tangential speed of the material contact point of touching feet for t0 <= t < t1: the
+    point of the foot's sphere touching the ground at one row of truth.csv, carried with the lower
+    leg to the next row."""
+    truth = hyq_runs.read_truth(out)
+    feet = hyq_runs.feet(BUILD, os.path.join(out, "truth.csv"))
+    t = truth["t"]
+    dt = t[1] - t[0] if len(t) > 1 else 1e-3
 
+    def frame(leg, k):
+        p = [feet[f"{leg}_{a}"][k] for a in "xyz"]
+        c = [feet[f"{leg}_c{a}"][k] for a in "xyz"]
+        R = [[feet[f"{leg}_R{i}{j}"][k] for j in range(3)] for i in range(3)]
+        return p, c, R
 
-def transpose(a):
-    return [[a[j][i] for j in range(3)] for i in range(3)]
-
-
-def rpy_to_mat(r, p, y):
-    cr, sr, cp, sp, cy, sy = math.cos(r), math.sin(r), math.cos(p), math.sin(p), math.cos(y), math.sin(y)
-    rx = [[1, 0, 0], [0, cr, -sr], [0, sr, cr]]
-    ry = [[cp, 0, sp], [0, 1, 0], [-sp, 0, cp]]
-    rz = [[cy, -sy, 0], [sy, cy, 0], [0, 0, 1]]
-    return mat_mul(rz, mat_mul(ry, rx))
-
-
-def axis_angle(axis, q):
-    x, y, z = axis
-    c, s, t = math.cos(q), math.sin(q), 1 - math.cos(q)
-    return [[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
-            [t * x * y + s * z, t * y * y + c, t * y * z - s * x],
-            [t * x * z - s * y, t * y * z + s * x, t * z * z + c]]
-
-
-def quat_to_mat(w, x, y, z):
-    return [[1 - 2 * (y * y + z * z), 2 * (x * y - w * z), 2 * (x * z + w * y)],
-            [2 * (x * y + w * z), 1 - 2 * (x * x + z * z), 2 * (y * z - w * x)],
-            [2 * (x * z - w * y), 2 * (y * z + w * x), 1 - 2 * (x * x + y * y)]]
-
-
-def load_chains(urdf):
-    joints = {}
-    for j in ET.parse(urdf).getroot().findall("joint"):
-        o = j.find("origin")
-        xyz = [float(v) for v in (o.get("xyz", "0 0 0").split() if o is not None else "0 0 0".split())]
-        rpy = [float(v) for v in (o.get("rpy", "0 0 0").split() if o is not None else "0 0 0".split())]
-        a = j.find("axis")
-        joints[j.find("child").get("link")] = dict(
-            name=j.get("name"), type=j.get("type"), parent=j.find("parent").get("link"),
-            xyz=xyz, R=rpy_to_mat(*rpy), axis=[float(v) for v in a.get("xyz").split()] if a is not None else None)
-    chains = {}
-    for leg in LEGS:
-        chain, link = [], f"{leg}_foot"
-        while link != "trunk":
-            chain.append(joints[link])
-            link = joints[link]["parent"]
-        chains[leg] = list(reversed(chain))
-    return chains
-
-
-def foot_pose(chain, base_p, base_R, qmap):
-    p, R = base_p, base_R
-    for j in chain:
-        p = [p[i] + v for i, v in enumerate(mat_vec(R, j["xyz"]))]
-        R = mat_mul(R, j["R"])
-        if j["type"] == "revolute":
-            R = mat_mul(R, axis_angle(j["axis"], qmap[j["name"]]))
-    return p, R
-
-
-def slip_from_truth(path, chains, t0, t1):
-    """Mean tangential speed of the material contact point of touching feet for t0 <= t < t1."""
-    with open(path) as f:
-        head = f.readline().strip().split(",")
-        rows = [list(map(float, l.split(","))) for l in f if l.strip()]
-    col = {n: i for i, n in enumerate(head)}
-    qnames = [n[2:] for n in head if n.startswith("q_")]
-    dt = rows[1][0] - rows[0][0] if len(rows) > 1 else 1e-3
-    poses = []
-    for r in rows:
-        bp = [r[col["x"]], r[col["y"]], r[col["z"]]]
-        bR = quat_to_mat(r[col["qw"]], r[col["qx"]], r[col["qy"]], r[col["qz"]])
-        qm = {n: r[col["q_" + n]] for n in qnames}
-        poses.append({leg: foot_pose(chains[leg], bp, bR, qm) for leg in LEGS})
     total, n = 0.0, 0
-    for k in range(len(rows) - 1):
-        t = rows[k][0]
-        if t < t0 or t >= t1 or rows[k][col["holding"]] > 0.5:
+    for k in range(len(t) - 1):
+        if t[k] < t0 or t[k] >= t1 or truth["holding"][k] > 0.5:
             continue
         for leg in LEGS:
-            if rows[k][col[f"{leg}_touching"]] < 0.5 or rows[k + 1][col[f"{leg}_touching"]] < 0.5:
+            touching = truth[f"{leg}_touching"]
+            if touching[k] < 0.5 or touching[k + 1] < 0.5:
                 continue
-            (p0, R0), (p1, R1) = poses[k][leg], poses[k + 1][leg]
-            b = mat_vec(transpose(R0), [0.0, 0.0, -FOOT_R])   # the contact point, body-fixed
-            c0 = [p0[i] + v for i, v in enumerate(mat_vec(R0, b))]
-            c1 = [p1[i] + v for i, v in enumerate(mat_vec(R1, b))]
+            p0, c0, R0 = frame(leg, k)
+            p1, _, R1 = frame(leg, k + 1)
+            b = [sum(R0[i][a] * (c0[i] - p0[i]) for i in range(3)) for a in range(3)]  # body-fixed
+            c1 = [p1[a] + sum(R1[a][i] * b[i] for i in range(3)) for a in range(3)]
             total += math.hypot(c1[0] - c0[0], c1[1] - c0[1]) / dt
             n += 1
     return total / n if n else float("nan"), dt
-
-
-# ---------- runs ----------
-def run_hil(out, ref, duration, ctrl, sim_args, log, resume=False):
-    cmd = [os.path.join(HERE, "scripts", "hil.sh"), "--build", BUILD, "--out", out, "--duration", str(duration),
-           "--reference", ref, "--controller", ctrl, "--mu", str(MU), "--clock", "lockstep",
-           "--no-logger", "--quiet", "--sim-arg", "--truth-every", "--sim-arg", "1"]
-    for a in sim_args:
-        cmd += ["--sim-arg", a]
-    files = [os.path.join(out, f) for f in ("servod.json", "sim.json", "hil.json", "cmd.txt")]
-    rc = 0
-    if resume and all(os.path.exists(f) for f in files) and open(files[3]).read() == " ".join(cmd):
-        log.write("# reused " + out + "\n")
-    else:
-        for attempt in range(2):  # one retry: a bring-up once failed with 'bind: Address already in use'
-            log.write("$ " + " ".join(cmd) + "\n")
-            t = time.time()
-            p = subprocess.run(cmd, capture_output=True, text=True)
-            log.write(p.stdout + p.stderr + f"(exit {p.returncode}, {time.time() - t:.1f} s wall)\n\n")
-            log.flush()
-            rc = p.returncode
-            if os.path.exists(files[0]):
-                break
-        open(files[3], "w").write(" ".join(cmd))
-    s = json.load(open(os.path.join(out, "servod.json")))
-    sim = json.load(open(os.path.join(out, "sim.json")))
-    h = json.load(open(os.path.join(out, "hil.json")))
-    return s, sim, h, rc, cmd
 
 
 def main():
@@ -170,11 +82,11 @@ def main():
     ap.add_argument("--build", default=BUILD, help=f"the build tree (default {BUILD})")
     a = ap.parse_args()
     BUILD = os.path.abspath(a.build)
-    if not os.path.exists(os.path.join(BUILD, "tools", "hyq-experiment", "hyq-experiment")):
-        ap.error(f"--build: no tools/hyq-experiment/hyq-experiment under {BUILD} (build the project first)")
+    for tool in ("hyq-experiment", "hyq-kinematics"):
+        if not os.path.exists(os.path.join(BUILD, "tools", tool, tool)):
+            ap.error(f"--build: no tools/{tool}/{tool} under {BUILD} (build the project first)")
     os.makedirs(a.out, exist_ok=True)
     log = open(os.path.join(a.out, "commands.log"), "a" if a.resume else "w")
-    chains = load_chains(os.path.join(HERE, "config", "robots", "hyq.urdf"))
 
     # in-process (hyq-experiment): the reference numbers of docs/experiments.md
     inproc_dir = os.path.join(a.out, "inprocess")
@@ -186,8 +98,9 @@ def main():
     subprocess.run(cmd, check=True, capture_output=True)
     inproc = json.load(open(os.path.join(inproc_dir, "results.json")))["scenarios"]
 
-    results = {"settings": {"mu": MU, "load_cell_noise_Nm": LOAD_CELL_NOISE, "imu_noise": IMU_NOISE,
-                            "actuator_tau_s": ACT_TAU, "clock": "lockstep"},
+    results = {"settings": {"mu": MU, "load_cell_noise_Nm": hyq_runs.LOAD_CELL_NOISE,
+                            "imu_noise": hyq_runs.IMU_NOISE, "actuator_tau_s": hyq_runs.ACTUATOR_TAU,
+                            "clock": "lockstep"},
                "inprocess": {}, "hil": {}}
     for r in REFS:
         for c in CTRLS:
@@ -200,15 +113,18 @@ def main():
 
     variants = ["full"] if a.quick else list(VARIANTS)
     for v in variants:
-        for r, (ref, dur) in REFS.items():
+        for r, dur in REFS.items():
             for c in CTRLS:
                 name = f"{r}_{c}_{v}"
                 out = os.path.join(a.out, "runs", name)
-                s, sim, h, rc, cmd = run_hil(out, ref, dur, c, VARIANTS[v], log, a.resume)
+                run = hyq_runs.run(out, c, build=BUILD, reference=hyq_runs.REFERENCES[r], duration_s=dur, mu=MU,
+                                   sim_args=["--truth-every", "1"] + sim_args(v), retries=1, log=log,
+                                   reuse=a.resume)
+                s, sim, h = run.summaries()
                 t0 = sim.get("released_at_s", 0.0)
-                slip, dt = slip_from_truth(os.path.join(out, "truth.csv"), chains, t0, h["t_stop_s"])
+                slip, dt = slip_from_truth(out, t0, h["t_stop_s"])
                 res = {
-                    "command": " ".join(cmd), "exit": rc,
+                    "command": " ".join(run.command), "exit": run.exit,
                     "active_s": s["active_s"], "final_mode": s["final_mode"],
                     "mean_error_rad": s["tracking_error_mean_rad"], "max_error_rad": s["tracking_error_max_rad"],
                     "fell_while_active": h["fell_while_active"],

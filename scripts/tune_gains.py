@@ -1,13 +1,13 @@
 #!/usr/bin/python3
-"""Tunes every controller's feedback gains the same way (issue 15, docs/tuning.md), through the loop.
+"""Tunes every controller's feedback gains the same way (docs/tuning.md), through the loop.
 
     /usr/bin/python3 scripts/tune_gains.py [--out DIR] [--budget N] [--controllers LIST]
                                            [--sim-arg ARG]... [--write-config] [--build DIR]
 
 The procedure, identical for each controller:
-  - the tuning scenario: scripts/hil.sh, lock-step, trot on mu = 0.1, 5 s, hyq-sim seed 1 (plus
-    whatever --sim-arg adds, e.g. a plant profile), the daemon with the shipped simulation
-    configuration and only the candidate's gains changed;
+  - the tuning scenario: scripts/hil.sh (through scripts/hyq_runs.py), lock-step, trot on
+    mu = 0.1, 5 s, hyq-sim seed 1 (plus whatever --sim-arg adds, e.g. a plant profile), the
+    daemon with the shipped simulation configuration and only the candidate's gains changed;
   - the search: N candidates per controller (default 16), the first the untuned gains the project
     shipped before (kp 300 N m/rad, kd 8 N m s/rad, no integral), the others a Halton sequence
     (bases 2, 3, 5) over the controller's own box, log-uniform:
@@ -27,15 +27,18 @@ The procedure, identical for each controller:
 Writes DIR/tuning.json (every candidate and its result), DIR/tuning.md (the table) and, with
 --write-config, the chosen gains into config/hyq_servo_sim.yaml and config/hyq_servo.yaml.
 """
-import argparse, json, math, os, re, subprocess, sys, time
+import argparse, json, math, os, re, time
 
-HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+import hyq_runs
+
+HERE = hyq_runs.HERE
+SCENARIO = {"reference": "trot", "mu": 0.1, "duration_s": 5.0, "seed": 1}
 I_LIMIT = 100.0                      # N m: two thirds of the joints' 150 N m effort limit
 MARGIN = 1.5                         # gain margin the chosen candidate keeps
 BOX = {"kp": (100.0, 3000.0), "kd": (2.0, 60.0), "ki": (30.0, 3000.0)}
 UNTUNED = {"kp": 300.0, "kd": 8.0, "ki": 0.0}
 PARAMS = {"pid": ["kp", "kd", "ki"], "pd_gravity": ["kp", "kd"], "noslip": ["kp", "kd"],
-          "two_stage": ["kp", "kd"]}
+          "two_stage": ["kp", "kd"]}  # the gains searched, for each of hyq_runs.CONTROLLERS
 KEYS = {  # controller -> {param: config key under controller.gains}
     "pid": {"kp": "pid_kp", "kd": "pid_kd", "ki": "pid_ki"},
     "pd_gravity": {"kp": "pdg_kp", "kd": "pdg_kd"},
@@ -115,32 +118,6 @@ def merge_gains(text, fragment):
     return "\n".join(lines)
 
 
-def run(build, out, ctrl, cfg_path, sim_args, reference="trot", mu=0.1, duration=5.0):
-    cmd = [os.path.join(HERE, "scripts", "hil.sh"), "--build", build, "--out", out, "--quiet",
-           "--no-logger", "--duration", str(duration), "--reference", reference, "--controller", ctrl,
-           "--mu", str(mu), "--servod-arg", "--config", "--servod-arg", cfg_path]
-    for a in sim_args:
-        cmd += ["--sim-arg", a]
-    p = subprocess.run(cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-    res = {"exit": p.returncode}
-    try:
-        s = json.load(open(os.path.join(out, "servod.json")))
-        sim = json.load(open(os.path.join(out, "sim.json")))
-    except (OSError, ValueError) as e:
-        res.update(stable=False, why=f"no summary ({e}); hil.sh said: {p.stdout[-300:]}")
-        return res
-    faults = [e["reason"] for e in s["event_log"] if e["to"] in ("damping", "fault") and e["reason"] != "stop_request"]
-    fell_active = sim.get("fell", False) and sim.get("fell_at_s", 0) < sim.get("released_at_s", 0) + s["active_s"]
-    res.update(error=s["tracking_error_mean_rad"], error_max=s["tracking_error_max_rad"],
-               active_s=s["active_s"], final_mode=s["final_mode"], faults=faults,
-               fell=bool(sim.get("fell", False)), fell_while_active=bool(fell_active))
-    res["stable"] = p.returncode == 0 and not faults and not sim.get("fell", False) and s["final_mode"] == "stopped"
-    if not res["stable"]:
-        res["why"] = (f"exit {p.returncode}" + (f", faults {faults}" if faults else "") +
-                      (", fell" if sim.get("fell") else ""))
-    return res
-
-
 def evaluate(a, ctrl, g, name):
     """One run of the tuning scenario with gains g, in DIR/runs/NAME."""
     d = os.path.join(a.out, "runs", name)
@@ -148,7 +125,10 @@ def evaluate(a, ctrl, g, name):
     cfg = os.path.join(d, "servo.yaml")
     with open(cfg, "w") as f:
         f.write(shipped_sim_config(a.build, gains_yaml(ctrl, g)))
-    return run(a.build, d, ctrl, cfg, ["--seed", "1"] + a.sim_arg)
+    r = hyq_runs.run(d, ctrl, build=a.build, reference=SCENARIO["reference"], mu=SCENARIO["mu"],
+                     duration_s=SCENARIO["duration_s"], servod_config=cfg,
+                     sim_args=["--seed", str(SCENARIO["seed"])] + a.sim_arg)
+    return hyq_runs.judge(r)
 
 
 def main():
@@ -156,25 +136,22 @@ def main():
                                  formatter_class=argparse.RawDescriptionHelpFormatter, epilog=__doc__)
     ap.add_argument("--out", default="tuning", help="output folder (default: tuning)")
     ap.add_argument("--budget", type=int, default=16, help="candidates per controller (default 16)")
-    ap.add_argument("--controllers", default="pid,pd_gravity,noslip,two_stage",
-                    help="comma-separated (default: pid,pd_gravity,noslip,two_stage)")
+    ap.add_argument("--controllers", default=",".join(hyq_runs.CONTROLLERS),
+                    help=f"comma-separated (default: {','.join(hyq_runs.CONTROLLERS)})")
     ap.add_argument("--sim-arg", action="append", default=[], help="passed to hyq-sim (repeatable)")
     ap.add_argument("--write-config", action="store_true",
                     help="write the chosen gains into config/hyq_servo_sim.yaml and config/hyq_servo.yaml")
-    ap.add_argument("--build", default=os.path.join(HERE, "build", "ci"), help="build tree (default build/ci)")
+    ap.add_argument("--build", default=hyq_runs.DEFAULT_BUILD, help="build tree (default build/ci)")
     a = ap.parse_args()
     ctrls = [c for c in a.controllers.split(",") if c]
     for c in ctrls:
-        if c not in PARAMS:
-            ap.error(f"--controllers: '{c}' is not one of {', '.join(PARAMS)}")
+        if c not in hyq_runs.CONTROLLERS:
+            ap.error(f"--controllers: '{c}' is not one of {', '.join(hyq_runs.CONTROLLERS)}")
     if a.budget < 1 or a.budget > 256:
         ap.error(f"--budget: expected 1..256, found {a.budget}")
-    for b in ("hyq-sim/hyq-sim", "hyq-servod/hyq-servod"):
-        if not os.access(os.path.join(a.build, "tools", b), os.X_OK):
-            sys.exit(f"tune_gains.py: {a.build}/tools/{b} not built (cmake --build --preset ci)")
+    hyq_runs.require_tools(a.build, ["hyq-sim", "hyq-servod"], "tune_gains.py")
     os.makedirs(a.out, exist_ok=True)
-    results = {"scenario": {"reference": "trot", "mu": 0.1, "duration_s": 5.0, "seed": 1,
-                            "sim_args": a.sim_arg}, "budget": a.budget, "i_limit_Nm": I_LIMIT,
+    results = {"scenario": {**SCENARIO, "sim_args": a.sim_arg}, "budget": a.budget, "i_limit_Nm": I_LIMIT,
                "box": BOX, "controllers": {}}
     total, done, t0 = a.budget * len(ctrls), 0, time.time()
     for ctrl in ctrls:

@@ -1,6 +1,6 @@
 // The servo's shared vocabulary: the capacities every module sizes its arrays by, the safety
 // modes and event reasons, the controller kinds and the operator command. Plain fixed-size
-// values: they cross threads through lock-free rings (servo/telemetry/spsc_ring.h) and are turned
+// values: they cross threads through lock-free rings (hal/spsc_ring.h) and are turned
 // into LCM messages only on the telemetry thread.
 //
 // Units are in the names: _rad, _rad_s, _Nm, _N, _m, _m_s, _ns, _us. Joint order lf, rf, lh, rh x

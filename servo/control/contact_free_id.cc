@@ -2,10 +2,10 @@
 
 namespace hyq::servo {
 
-dynamics::VectorJ ContactFreeId(const dynamics::CycleDynamics& dyn, const dynamics::VectorJ& qdd,
-                                dynamics::Vector6d* a_base) noexcept {
-  const auto h_b = dyn.bias.head<dynamics::kNumBaseDofs>();
-  const auto h_q = dyn.bias.tail<dynamics::kNumJoints>();
+dynamics::VectorJ ContactFreeId(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h,
+                                const dynamics::VectorJ& qdd, dynamics::Vector6d* a_base) noexcept {
+  const auto h_b = h.head<dynamics::kNumBaseDofs>();
+  const auto h_q = h.tail<dynamics::kNumJoints>();
   dynamics::VectorJ tau = dyn.inv.F_inv * qdd + h_q;
   tau.noalias() -= dyn.inv.A_inv_B.transpose() * h_b;
   if (a_base != nullptr) {

@@ -9,9 +9,17 @@
 
 namespace hyq::servo {
 
-/// f_ID for qdd (12); *a_base (optional) receives the resulting base acceleration (6). Never
-/// allocates.
-dynamics::VectorJ ContactFreeId(const dynamics::CycleDynamics& dyn, const dynamics::VectorJ& qdd,
+/// f_ID for qdd (12) with the bias forces h (18; the model's dyn.bias, or that bias corrected by
+/// an estimated disturbance); *a_base (optional) receives the resulting base acceleration (6).
+/// Never allocates.
+dynamics::VectorJ ContactFreeId(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h,
+                                const dynamics::VectorJ& qdd,
                                 dynamics::Vector6d* a_base = nullptr) noexcept;
+/// As above with the model's h = dyn.bias.
+inline dynamics::VectorJ ContactFreeId(const dynamics::CycleDynamics& dyn,
+                                       const dynamics::VectorJ& qdd,
+                                       dynamics::Vector6d* a_base = nullptr) noexcept {
+  return ContactFreeId(dyn, dyn.bias, qdd, a_base);
+}
 
 }  // namespace hyq::servo

@@ -43,9 +43,18 @@ void Controller::Reset() noexcept {
   id_integral_.setZero();
 }
 
-IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& q,
-                             const VectorV& v, const JointReference& ref,
+IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const dynamics::Vector6d& d_b,
+                             const VectorQ& q, const VectorV& v, const JointReference& ref,
                              const ContactEnvironment& env, double dt, IdOutput* out) noexcept {
+  h_corrected_ = dyn.bias;
+  h_corrected_.head<dynamics::kNumBaseDofs>() -= d_b;
+  return ComputeWithBias(dyn, h_corrected_, q, v, ref, env, dt, out);
+}
+
+IdStatus Controller::ComputeWithBias(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h,
+                                     const VectorQ& q, const VectorV& v, const JointReference& ref,
+                                     const ContactEnvironment& env, double dt,
+                                     IdOutput* out) noexcept {
   const auto qj = q.tail<dynamics::kNumJoints>();
   const auto vj = v.tail<dynamics::kNumJoints>();
   // the feedback gains' scale per joint: swing legs' joints get this controller's swing scale
@@ -63,7 +72,7 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
   }
   if (config_.kind == ControllerKind::kPdGravity) {
     *out = IdOutput{};
-    out->tau_Nm = pd_gravity_.Compute(dyn, qj, vj, ref.q, ref.qd, ref.stance, &scale);
+    out->tau_Nm = pd_gravity_.Compute(dyn, h, qj, vj, ref.q, ref.qd, ref.stance, &scale);
     return IdStatus::kOk;
   }
   const FeedbackGains& g = config_.feedback;
@@ -76,9 +85,9 @@ IdStatus Controller::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& 
   input_.dt = config_.id.horizon_s > 0.0 ? config_.id.horizon_s : dt;
   IdStatus st = IdStatus::kBadInput;
   switch (config_.kind) {
-    case ControllerKind::kNoSlipId: st = noslip_.Solve(model_, dyn, input_, out); break;
-    case ControllerKind::kStage1Id: st = stage1_.Solve(model_, dyn, input_, out); break;
-    case ControllerKind::kTwoStageId: st = two_stage_.Solve(model_, dyn, input_, out); break;
+    case ControllerKind::kNoSlipId: st = noslip_.Solve(model_, dyn, h, input_, out); break;
+    case ControllerKind::kStage1Id: st = stage1_.Solve(model_, dyn, h, input_, out); break;
+    case ControllerKind::kTwoStageId: st = two_stage_.Solve(model_, dyn, h, input_, out); break;
     case ControllerKind::kPid:
     case ControllerKind::kPdGravity: break;
   }

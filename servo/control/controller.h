@@ -109,7 +109,15 @@ class Controller {
   /// kinds, the impulses and stage reports). Never throws or allocates.
   IdStatus Compute(const dynamics::CycleDynamics& dyn, const VectorQ& q, const VectorV& v,
                    const JointReference& ref, const ContactEnvironment& env, double dt,
-                   IdOutput* out) noexcept;
+                   IdOutput* out) noexcept {
+    return ComputeWithBias(dyn, dyn.bias, q, v, ref, env, dt, out);
+  }
+  /// As above, with the model corrected by an estimated trunk disturbance d_b (the base rows'
+  /// generalized force the model does not explain; disturbance_observer.h): PD + g and the ID
+  /// kinds use h − [d_b; 0] where they use the model's h. `dyn` itself is left as it is.
+  IdStatus Compute(const dynamics::CycleDynamics& dyn, const dynamics::Vector6d& d_b,
+                   const VectorQ& q, const VectorV& v, const JointReference& ref,
+                   const ContactEnvironment& env, double dt, IdOutput* out) noexcept;
 
   /// The ID input of the last Compute (for recording ID problem files).
   const IdInput& last_input() const noexcept { return input_; }
@@ -131,6 +139,10 @@ class Controller {
   const TwoStageId& two_stage() const noexcept { return two_stage_; }
 
  private:
+  IdStatus ComputeWithBias(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h,
+                           const VectorQ& q, const VectorV& v, const JointReference& ref,
+                           const ContactEnvironment& env, double dt, IdOutput* out) noexcept;
+
   const dynamics::Model& model_;
   ControllerConfig config_;
   PidController pid_;
@@ -141,6 +153,7 @@ class Controller {
   IdInput input_;
   dynamics::VectorJ effort_limit_;
   dynamics::VectorJ id_integral_ = dynamics::VectorJ::Zero();
+  dynamics::VectorV h_corrected_ = dynamics::VectorV::Zero();  // h − [d_b; 0], per cycle
 };
 
 }  // namespace hyq::servo

@@ -27,7 +27,7 @@ Eigen::Matrix<double, n, 1> MinNormSolve(Solver* eig, const Eigen::Matrix<double
 }  // namespace
 
 IdStatus NoSlipId::Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
-                         const IdInput& in, IdOutput* out) noexcept {
+                         const dynamics::VectorV& h, const IdInput& in, IdOutput* out) noexcept {
   ++counters_.calls;
   *out = IdOutput{};
   if (!in.qdd_des.allFinite() || !in.v.allFinite() || !(in.dt > 0.0) || !std::isfinite(in.dt) ||
@@ -40,7 +40,7 @@ IdStatus NoSlipId::Solve(const dynamics::Model& model, const dynamics::CycleDyna
   dynamics::Vector6d a_b;
   if (k == 0) {
     ++counters_.no_contact;
-    out->tau_Nm = ContactFreeId(dyn, in.qdd_des, &a_b);
+    out->tau_Nm = ContactFreeId(dyn, h, in.qdd_des, &a_b);
   } else {
     Jc_.resize(3 * k, kNv);
     Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, kMaxRows, 1> rhs(3 * k);
@@ -56,7 +56,7 @@ IdStatus NoSlipId::Solve(const dynamics::Model& model, const dynamics::CycleDyna
     a_b = -MinNormSolve<kB>(&eig_base_, Nb, Jbt_rhs);
     VectorV vdot;
     vdot << a_b, in.qdd_des;
-    VectorV b = dyn.bias;
+    VectorV b = h;
     b.noalias() += dyn.M * vdot;
 
     // J_cᵀ Π = Q [R; 0]; Q_u = the columns past the rank
@@ -64,7 +64,7 @@ IdStatus NoSlipId::Solve(const dynamics::Model& model, const dynamics::CycleDyna
     const int rank = static_cast<int>(qr_.rank());
     if (rank == 0) {
       ++counters_.decomposition_failed;
-      out->tau_Nm = ContactFreeId(dyn, in.qdd_des, &a_b);
+      out->tau_Nm = ContactFreeId(dyn, h, in.qdd_des, &a_b);
       out->fallback = Fallback::kContactFreeId;
       if (ClampToEffortLimits(model, &out->tau_Nm)) ++counters_.clamped;
     } else {

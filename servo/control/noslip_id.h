@@ -26,7 +26,12 @@ class NoSlipId {
  public:
   /// Same contract as TwoStageId::Solve (stage1/stage2 reports are left "not run").
   IdStatus Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
-                 const IdInput& in, IdOutput* out) noexcept;
+                 const dynamics::VectorV& h, const IdInput& in, IdOutput* out) noexcept;
+  /// As above with the model's h = dyn.bias.
+  IdStatus Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
+                 const IdInput& in, IdOutput* out) noexcept {
+    return Solve(model, dyn, dyn.bias, in, out);
+  }
   const FallbackCounters& counters() const noexcept { return counters_; }
 
  private:

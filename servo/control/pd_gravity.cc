@@ -19,12 +19,11 @@ PdGravityController::PdGravityController(const PdGains& gains,
     : gains_(gains), effort_limit_(effort_limit_Nm) {}
 
 dynamics::VectorJ PdGravityController::Compute(
-    const dynamics::CycleDynamics& dyn, const dynamics::VectorJ& q, const dynamics::VectorJ& qd,
-    const dynamics::VectorJ& q_ref, const dynamics::VectorJ& qd_ref,
+    const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h, const dynamics::VectorJ& q,
+    const dynamics::VectorJ& qd, const dynamics::VectorJ& q_ref, const dynamics::VectorJ& qd_ref,
     const std::array<bool, dynamics::kNumFeet>& stance,
     const dynamics::VectorJ* gain_scale) noexcept {
   constexpr int nb = dynamics::kNumBaseDofs;
-  const dynamics::VectorV& h = dyn.bias;
   Eigen::Matrix<double, nb, nb> N = kDamping * Eigen::Matrix<double, nb, nb>::Identity();
   bool any = false;
   for (int f = 0; f < dynamics::kNumFeet; ++f) {

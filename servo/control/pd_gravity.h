@@ -1,4 +1,4 @@
-// PD + gravity compensation: the fourth baseline of the comparison (issue 15, docs/experiments.md).
+// PD + gravity compensation: the fourth baseline of the comparison (docs/experiments.md).
 // It has a model-based feed-forward but no contact model: no friction cone, no contact
 // accelerations, no impulses. It separates "any model-based feed-forward" from the two-stage
 // ID's "contact-aware feed-forward".
@@ -29,13 +29,22 @@ class PdGravityController {
  public:
   PdGravityController(const PdGains& gains, const dynamics::VectorJ& effort_limit_Nm);
 
-  /// One cycle; `dyn` is the cycle's dynamics at the measured state. Never allocates.
-  /// `gain_scale` (optional): per joint, multiplies kp and kd (not τ_g).
+  /// One cycle; `dyn` is the cycle's dynamics at the measured state, `h` the bias forces the
+  /// feed-forward holds (dyn.bias, or that bias corrected by an estimated disturbance). Never
+  /// allocates. `gain_scale` (optional): per joint, multiplies kp and kd (not τ_g).
+  dynamics::VectorJ Compute(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h,
+                            const dynamics::VectorJ& q, const dynamics::VectorJ& qd,
+                            const dynamics::VectorJ& q_ref, const dynamics::VectorJ& qd_ref,
+                            const std::array<bool, dynamics::kNumFeet>& stance,
+                            const dynamics::VectorJ* gain_scale = nullptr) noexcept;
+  /// As above with the model's h = dyn.bias.
   dynamics::VectorJ Compute(const dynamics::CycleDynamics& dyn, const dynamics::VectorJ& q,
                             const dynamics::VectorJ& qd, const dynamics::VectorJ& q_ref,
                             const dynamics::VectorJ& qd_ref,
                             const std::array<bool, dynamics::kNumFeet>& stance,
-                            const dynamics::VectorJ* gain_scale = nullptr) noexcept;
+                            const dynamics::VectorJ* gain_scale = nullptr) noexcept {
+    return Compute(dyn, dyn.bias, q, qd, q_ref, qd_ref, stance, gain_scale);
+  }
 
   /// The last cycle's feed-forward τ_g, N·m.
   const dynamics::VectorJ& gravity_torque() const noexcept { return tau_g_; }

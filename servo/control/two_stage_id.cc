@@ -31,25 +31,23 @@ void ContactFreeAnswer(const dynamics::CycleDynamics& dyn, const IdInput& in,
 }
 
 // A warm start from the previous cycle's working set can lead the dual active set into a long
-// detour that a cold start avoids (on the hard problems of two_stage_id_test, most warm
-// iteration limits solve cold in under 40 iterations). The warm attempt gets at most
-// kWarmIterations (along the recorded trot a warm ID needs at most 36 for both stages); past
+// detour that a cold start avoids, so the warm attempt is capped at kWarmIterations (well above
+// what a warm ID needs along a trot, where the working set changes little between cycles); past
 // that the QP is solved again cold, with at most kColdIterations, and then once more by the last
 // attempt below before a fallback.
 constexpr int kWarmIterations = 100;
-// A QP that the cold attempt does not solve in 100 iterations is one of the degenerate ones
-// (on generator seeds 1-60 the cold attempt at 100 leaves only those, and the last attempt
-// solves each in ~16 iterations); with the full 500 it went on for 0.3-3.6 ms (2-14 proximal
-// outer iterations at ε's floor), past the daemon's 400 us budget, before the last attempt.
+// A QP that a cold start does not solve in 100 iterations is a degenerate one, on which the
+// proximal outer loop stalls at ε's floor; more iterations would only spend the cycle's time
+// budget that the last attempt needs, and the last attempt solves such QPs in a few dozen.
 constexpr int kColdIterations = 100;
-// The last attempt, cold with a large proximal weight (relative to max H_ii): on the degenerate
-// Stage II QPs that still reach the budget from 1e-5 (ε reduced to its floor, the primal
-// residual stuck at 1e-6), 1e-2 solves them in one outer iteration of ~8 active-set changes.
-// Only a last attempt: as a start it would stop the flat directions early (docs/qp.md).
+// The last attempt, cold with a large proximal weight (relative to max H_ii): on a degenerate
+// Stage II QP, where a small ε is reduced to its floor and the primal residual stops shrinking,
+// a large ε converges in one outer iteration of a few active-set changes. Only a last attempt:
+// as a start it would stop the flat directions early (docs/qp.md).
 constexpr double kLastResortProximalWeight = 1e-2;
 // Under a time budget the attempts share it: the warm one may use 40 % of what is left when it
-// starts, the cold one 60 % of what is left after that, so at least 24 % is kept for the last
-// attempt (~15 us on the degenerate QPs, 96 us of the daemon's 400).
+// starts, the cold one 60 % of what is left after that, so at least 24 % of the budget is kept
+// for the last attempt, which is the one that solves the degenerate QPs.
 constexpr double kWarmShareOfTime = 0.4;
 constexpr double kColdShareOfTime = 0.6;
 
@@ -68,8 +66,8 @@ bool Attempt(qp::Solver& solver, const qp::Problem& p, qp::Budget budget, int ma
 qp::Settings IdQpSettings(double proximal_weight) {
   qp::Settings q;
   q.proximal_weight = proximal_weight;
-  // Stage I's H has rank ≤ 6; on the benchmark's 2- and 4-foot trot the ε = 0 attempt failed on
-  // every QP of both stages (issue 16: skipping it leaves the answers as they were)
+  // Stage I's H has rank ≤ 6 and Stage II's is singular too on a trot's contact sets: an ε = 0
+  // factorisation attempt fails on them and only costs time; skipping it changes no answer
   q.singular_hessian = true;
   return q;
 }
@@ -166,7 +164,8 @@ qp::Budget TwoStageId::MakeBudget(bool warm, int max_iterations) const noexcept 
 }
 
 IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
-                           const IdInput& in, IdOutput* out) noexcept {
+                           const dynamics::VectorV& h_bias, const IdInput& in,
+                           IdOutput* out) noexcept {
   ++counters_.calls;
   *out = IdOutput{};
   if (!in.qdd_des.allFinite() || !in.v.allFinite() || !(in.dt > 0.0) || !std::isfinite(in.dt) ||
@@ -179,7 +178,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
   }
   const double h = in.dt;
   dynamics::Vector6d a_b;
-  const VectorJ f_id = ContactFreeId(dyn, in.qdd_des, &a_b);
+  const VectorJ f_id = ContactFreeId(dyn, h_bias, in.qdd_des, &a_b);
 
   // zero stance feet: the contact-free floating-base ID is the answer
   if (set_.count == 0) {
@@ -207,8 +206,8 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
       }
     }
     // G = J_c M⁻¹ J_cᵀ by 3 × 3 blocks, upper ones mirrored: J_c,i is zero outside the base
-    // columns and its own leg's three (a general product of the dynamic-size blocks was 4
-    // GEMM calls, ~6 % of a 4-foot ID's instructions)
+    // columns and its own leg's three, so fixed-size blocks skip the zeros that a general
+    // product of the dynamic-size matrices would multiply
     Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12> G(rows, rows);
     for (int i = 0; i < set_.count; ++i) {
       const int leg = kB + dynamics::JointIndex(set_.foot[i], 0);
@@ -230,7 +229,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
   }
   if (settings_.velocity_consistent_qdd)
     (void)MakeVelocityConsistent(set_, consistent_.v, h, &consistent_.qdd_des);
-  RunStage1(dyn, consistent_, f_id);
+  RunStage1(dyn, h_bias, consistent_, f_id);
   out->stage1 = {true, s1_.status, s1_.objective, s1_.iterations, s1_.solve_time_s};
   if (s1_.status != qp::Status::kOptimal) {
     ++counters_.stage1_failed;
@@ -302,8 +301,8 @@ bool MakeVelocityConsistent(const ContactSet& set, const VectorV& v, double h,
   return true;
 }
 
-void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in,
-                           const VectorJ& f_id) noexcept {
+void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h_bias,
+                           const IdInput& in, const VectorJ& f_id) noexcept {
   const double h = in.dt;
   const int nz = set_.num_impulses();
   const int nc = set_.count;
@@ -311,7 +310,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in
   const auto R_q = set_.R.bottomRows<kJ>();
 
   // j, k (15, 16): [j; k] = v + M⁻¹ h (f_ext + [0; f_ID]),  f_ext = −h_bias
-  VectorV w = -h * dyn.bias;
+  VectorV w = -h * h_bias;
   w.tail<kJ>() += h * f_id;
   dynamics::SolveInPlace(dyn.factor, &w);
   const dynamics::Vector6d j = in.v.head<kB>() + w.head<kB>();

@@ -158,9 +158,15 @@ class TwoStageId {
   /// Solves one ID problem. `dyn` must be ComputeCycleDynamics(model, in.q, in.v). Returns kOk
   /// when the torque is the method's own answer, kFallback when a fallback produced it (see
   /// out->fallback), kBadInput when nothing usable could be computed (out->tau is zero and
-  /// out->fallback is kSafety). Never throws or allocates.
+  /// out->fallback is kSafety). Never throws or allocates. `h` is the bias forces the ID
+  /// balances: dyn.bias, or that bias corrected by an estimated disturbance (h − [d_b; 0]).
   IdStatus Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
-                 const IdInput& in, IdOutput* out) noexcept;
+                 const dynamics::VectorV& h, const IdInput& in, IdOutput* out) noexcept;
+  /// As above with the model's h = dyn.bias.
+  IdStatus Solve(const dynamics::Model& model, const dynamics::CycleDynamics& dyn,
+                 const IdInput& in, IdOutput* out) noexcept {
+    return Solve(model, dyn, dyn.bias, in, out);
+  }
 
   const FallbackCounters& counters() const noexcept { return counters_; }
   const TwoStageSettings& settings() const noexcept { return settings_; }
@@ -172,8 +178,8 @@ class TwoStageId {
   void Reset() noexcept;
 
  private:
-  void RunStage1(const dynamics::CycleDynamics& dyn, const IdInput& in,
-                 const VectorJ& f_id) noexcept;
+  void RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::VectorV& h_bias,
+                 const IdInput& in, const VectorJ& f_id) noexcept;
   bool RunStage2(double h, IdOutput* out) noexcept;
   qp::Budget MakeBudget(bool warm, int max_iterations) const noexcept;
 

@@ -1,4 +1,4 @@
-// Stand up and sit down (issue 19): a posture change with every foot on the ground. The base
+// Stand up and sit down: a posture change with every foot on the ground. The base
 // rises or sinks from h0 to h1 along a minimum-jerk profile at a fixed heading, braking from the
 // horizontal velocity it had (a trot's) to rest within min(duration, 0.3 s), x(s) = v0 T (s − s³ + s⁴/2),
 // s = t/T (the quintic with x(0) = 0, x'(0) = v0 T, x''(0) = x'(1) = x''(1) = 0); each

@@ -4,56 +4,159 @@
 
 namespace hyq::servo {
 
+inline constexpr int kNumServoModes = 6;  // ServoMode kInit .. kStopped
+
+// The modes' handlers and their table (safety_state_machine.h): each returns the next mode and
+// the event of the transition.
+struct SafetyTable {
+  using M = SafetyStateMachine;
+  using Next = M::Next;
+  using Occurrence = M::Occurrence;
+  using Torque = SafetyDecision::Torque;
+
+  static const M::ModeRow kRows[kNumServoModes];
+
+  static Next Stay(M& m, const Occurrence&) noexcept { return {m.mode_}; }
+
+  static Next ToStandby(M&, const Occurrence&) noexcept {
+    return {ServoMode::kStandby, EventReason::kBringUpComplete, "all devices in OP"};
+  }
+
+  // enable only from STANDBY, and never once a stop was requested
+  static Next RefuseEnable(M& m, const Occurrence&) noexcept {
+    char d[kEventDetailSize];
+    std::snprintf(d, sizeof d, "enable refused in %s (only from standby)", ToString(m.mode_));
+    m.Note(EventReason::kCommandRejected, d);
+    return {m.mode_};
+  }
+  static Next Enable(M& m, const Occurrence& o) noexcept {
+    if (m.stop_) return RefuseEnable(m, o);
+    return {ServoMode::kActive, o.reason, "controller torques applied"};
+  }
+
+  static Next Disable(M&, const Occurrence&) noexcept {
+    return {ServoMode::kStandby, EventReason::kDisableCommand, "zero torque"};
+  }
+
+  static Next Damp(M& m, const Occurrence&) noexcept {
+    m.damping_next_ = ServoMode::kStandby;
+    return {ServoMode::kDamping, EventReason::kDampingCommand, "damping on command"};
+  }
+
+  static Next Acknowledge(M& m, const Occurrence& o) noexcept {
+    if (!o.inputs_ok) {
+      m.Note(EventReason::kCommandRejected, "acknowledge refused: the inputs are still faulty");
+      return {m.mode_};
+    }
+    m.latched_ = 0;
+    return {ServoMode::kStandby, EventReason::kAcknowledge, "faults acknowledged"};
+  }
+
+  // a controlled stop: from ACTIVE through DAMPING, from a resting mode at once
+  static Next StopDamping(M& m, const Occurrence&) noexcept {
+    m.damping_next_ = ServoMode::kStopped;
+    return {ServoMode::kDamping, EventReason::kStopRequest, "controlled stop: damping"};
+  }
+  static Next StopNow(M&, const Occurrence&) noexcept {
+    return {ServoMode::kStopped, EventReason::kStopRequest, "stop"};
+  }
+
+  static Next FaultTo(ServoMode to, M& m, const Occurrence& o) noexcept {
+    const Fault& f = *o.fault;
+    m.latched_ |= Bit(f);
+    return {to, f.reason, f.detail.data(), f.joint, f.bus};
+  }
+  static Next FaultDamping(M& m, const Occurrence& o) noexcept {
+    m.damping_next_ = m.stop_ ? ServoMode::kStopped : ServoMode::kFault;
+    return FaultTo(ServoMode::kDamping, m, o);
+  }
+  static Next FaultNow(M& m, const Occurrence& o) noexcept {
+    return FaultTo(ServoMode::kFault, m, o);
+  }
+  // already safe: an event, once per reason until acknowledged
+  static Next RecordOnce(M& m, const Occurrence& o) noexcept {
+    const Fault& f = *o.fault;
+    if ((m.latched_ & Bit(f)) != 0) return {m.mode_};
+    m.latched_ |= Bit(f);
+    SafetyEvent e;
+    e.cycle = m.cycle_;
+    e.time_ns = m.now_ns_;
+    e.from = e.to = m.mode_;
+    e.reason = f.reason;
+    e.joint = f.joint;
+    e.bus = f.bus;
+    e.detail = f.detail;
+    m.Push(e);
+    return {m.mode_};
+  }
+  static Next FaultInDamping(M& m, const Occurrence& o) noexcept {
+    m.damping_next_ = m.stop_ ? ServoMode::kStopped : ServoMode::kFault;
+    return RecordOnce(m, o);
+  }
+
+  static Next DampingDone(M& m, const Occurrence&) noexcept {
+    if (m.hold_damping_ ||
+        static_cast<double>(m.cycles_in_mode_) * m.dt_ < m.limits_.damping_duration_s)
+      return {m.mode_};
+    return {m.stop_ ? ServoMode::kStopped : m.damping_next_,
+            m.stop_ ? EventReason::kStopRequest : EventReason::kDampingDone,
+            "damping finished: zero torque"};
+  }
+
+  static std::uint32_t Bit(const Fault& f) noexcept {
+    return 1u << static_cast<unsigned>(f.reason);  // < kNumEventReasons <= 32
+  }
+};
+
+// clang-format off
+constexpr hal::DeviceState kPreOp = hal::DeviceState::kPreOp, kSafeOp = hal::DeviceState::kSafeOp;
+const SafetyStateMachine::ModeRow SafetyTable::kRows[kNumServoModes] = {
+  // torque, the devices asked for on entry;
+  // bring-up   enable        disable  damp  acknowledge  stop         fault           damping timer
+  /* INIT */     {Torque::kZero,       false, kPreOp,
+     ToStandby, RefuseEnable, Stay,    Stay, Stay,        StopNow,     FaultNow,       Stay},
+  /* STANDBY */  {Torque::kZero,       false, kPreOp,
+     Stay,      Enable,       Stay,    Damp, Stay,        StopNow,     FaultNow,       Stay},
+  /* ACTIVE */   {Torque::kController, false, kPreOp,
+     Stay,      RefuseEnable, Disable, Damp, Stay,        StopDamping, FaultDamping,   Stay},
+  /* DAMPING */  {Torque::kDamping,    false, kPreOp,
+     Stay,      RefuseEnable, Stay,    Stay, Stay,        Stay,        FaultInDamping, DampingDone},
+  /* FAULT */    {Torque::kZero,       true,  kSafeOp,
+     Stay,      RefuseEnable, Stay,    Stay, Acknowledge, StopNow,     RecordOnce,     Stay},
+  /* STOPPED */  {Torque::kZero,       true,  kPreOp,
+     Stay,      RefuseEnable, Stay,    Stay, Stay,        Stay,        RecordOnce,     Stay},
+};
+// clang-format on
+
+bool SafetyStateMachine::Dispatch(Handler ModeRow::*column, const Occurrence& o) noexcept {
+  const Next next = (SafetyTable::kRows[static_cast<std::size_t>(mode_)].*column)(*this, o);
+  if (next.mode == mode_) return false;
+  Transition(next.mode, next.reason, next.joint, next.bus, next.detail);
+  return true;
+}
+
 void SafetyStateMachine::BeginCycle(std::uint64_t cycle, std::int64_t now_ns) noexcept {
   cycle_ = cycle;
   now_ns_ = now_ns;
   ++cycles_in_mode_;
-  if (mode_ == ServoMode::kDamping && !hold_damping_ &&
-      static_cast<double>(cycles_in_mode_) * dt_ >= limits_.damping_duration_s) {
-    const ServoMode next = stop_ ? ServoMode::kStopped : damping_next_;
-    Transition(next, stop_ ? EventReason::kStopRequest : EventReason::kDampingDone, -1, -1,
-               "damping finished: zero torque");
-  }
+  Dispatch(&ModeRow::on_damping_timer, {});
 }
 
-void SafetyStateMachine::BringUpComplete() noexcept {
-  if (mode_ == ServoMode::kInit)
-    Transition(ServoMode::kStandby, EventReason::kBringUpComplete, -1, -1, "all devices in OP");
-}
+void SafetyStateMachine::BringUpComplete() noexcept { Dispatch(&ModeRow::on_bring_up, {}); }
 
 bool SafetyStateMachine::Enable(EventReason why) noexcept {
-  if (mode_ != ServoMode::kStandby || stop_) {
-    char d[kEventDetailSize];
-    std::snprintf(d, sizeof d, "enable refused in %s (only from standby)", ToString(mode_));
-    Note(EventReason::kCommandRejected, d);
-    return false;
-  }
-  Transition(ServoMode::kActive, why, -1, -1, "controller torques applied");
-  return true;
+  return Dispatch(&ModeRow::on_enable, {.reason = why});
 }
 
 bool SafetyStateMachine::Disable() noexcept {
-  if (mode_ != ServoMode::kActive) return mode_ == ServoMode::kStandby;
-  Transition(ServoMode::kStandby, EventReason::kDisableCommand, -1, -1, "zero torque");
-  return true;
+  Dispatch(&ModeRow::on_disable, {});
+  return mode_ == ServoMode::kStandby;  // disabled now, or already
 }
 
-bool SafetyStateMachine::Damp() noexcept {
-  if (mode_ != ServoMode::kActive && mode_ != ServoMode::kStandby) return false;
-  damping_next_ = ServoMode::kStandby;
-  Transition(ServoMode::kDamping, EventReason::kDampingCommand, -1, -1, "damping on command");
-  return true;
-}
+bool SafetyStateMachine::Damp() noexcept { return Dispatch(&ModeRow::on_damp, {}); }
 
 bool SafetyStateMachine::Acknowledge(bool inputs_ok) noexcept {
-  if (mode_ != ServoMode::kFault) return false;
-  if (!inputs_ok) {
-    Note(EventReason::kCommandRejected, "acknowledge refused: the inputs are still faulty");
-    return false;
-  }
-  latched_ = 0;
-  Transition(ServoMode::kStandby, EventReason::kAcknowledge, -1, -1, "faults acknowledged");
-  return true;
+  return Dispatch(&ModeRow::on_acknowledge, {.inputs_ok = inputs_ok});
 }
 
 bool SafetyStateMachine::RequestAcknowledge() noexcept {
@@ -89,25 +192,21 @@ void SafetyStateMachine::Update(const CycleFacts& f) noexcept {
   }
 }
 
-SafetyDecision SafetyStateMachine::Decide(bool devices_down) noexcept {
+SafetyDecision SafetyStateMachine::Decide(bool devices_down, bool hold_damping) noexcept {
+  const ModeRow& row = SafetyTable::kRows[static_cast<std::size_t>(mode_)];
   SafetyDecision d;
   d.mode = mode_;
-  d.torque = mode_ == ServoMode::kActive    ? SafetyDecision::Torque::kController
-             : mode_ == ServoMode::kDamping ? SafetyDecision::Torque::kDamping
-                                            : SafetyDecision::Torque::kZero;
+  d.torque = row.torque;
   if (mode_ != decided_mode_) {
-    if (mode_ == ServoMode::kFault) {
+    if (row.request_devices) {
       d.request_devices = true;
-      d.device_request = hal::DeviceState::kSafeOp;  // outputs disabled
+      d.device_request = row.device_request;
     }
-    if (mode_ == ServoMode::kStopped) {
-      d.request_devices = true;
-      d.device_request = hal::DeviceState::kPreOp;
-      stop_cycle_ = cycle_;
-    }
+    if (mode_ == ServoMode::kStopped) stop_cycle_ = cycle_;
     decided_mode_ = mode_;
   }
   if (mode_ == ServoMode::kActive) ever_active_ = true;
+  hold_damping_ = hold_damping && mode_ == ServoMode::kDamping;
   d.finished = mode_ == ServoMode::kStopped &&
                (devices_down || static_cast<double>(cycle_ - stop_cycle_) * dt_ > stop_timeout_s_);
   return d;
@@ -116,47 +215,12 @@ SafetyDecision SafetyStateMachine::Decide(bool devices_down) noexcept {
 void SafetyStateMachine::Stop() noexcept {
   if (stop_) return;
   stop_ = true;
-  if (mode_ == ServoMode::kActive) {
-    damping_next_ = ServoMode::kStopped;
-    Transition(ServoMode::kDamping, EventReason::kStopRequest, -1, -1, "controlled stop: damping");
-  } else if (mode_ != ServoMode::kDamping && mode_ != ServoMode::kStopped) {
-    Transition(ServoMode::kStopped, EventReason::kStopRequest, -1, -1, "stop");
-  }
+  Dispatch(&ModeRow::on_stop, {});
 }
 
 void SafetyStateMachine::Report(const Fault& f) noexcept {
   if (!f || static_cast<std::size_t>(f.reason) >= kNumEventReasons) return;
-  const std::uint32_t bit = 1u << static_cast<unsigned>(f.reason);  // < kNumEventReasons <= 32
-  switch (mode_) {
-    case ServoMode::kActive:
-      damping_next_ = stop_ ? ServoMode::kStopped : ServoMode::kFault;
-      latched_ |= bit;
-      Transition(ServoMode::kDamping, f.reason, f.joint, f.bus, f.detail.data());
-      return;
-    case ServoMode::kStandby:
-    case ServoMode::kInit:
-      latched_ |= bit;
-      Transition(ServoMode::kFault, f.reason, f.joint, f.bus, f.detail.data());
-      return;
-    case ServoMode::kDamping:
-      damping_next_ = stop_ ? ServoMode::kStopped : ServoMode::kFault;
-      [[fallthrough]];
-    case ServoMode::kFault:
-    case ServoMode::kStopped:
-      if ((latched_ & bit) == 0) {
-        latched_ |= bit;
-        SafetyEvent e;
-        e.cycle = cycle_;
-        e.time_ns = now_ns_;
-        e.from = e.to = mode_;
-        e.reason = f.reason;
-        e.joint = f.joint;
-        e.bus = f.bus;
-        e.detail = f.detail;
-        Push(e);
-      }
-      return;
-  }
+  Dispatch(&ModeRow::on_fault, {.fault = &f});
 }
 
 void SafetyStateMachine::Note(EventReason reason, const char* detail) noexcept {

@@ -1,19 +1,29 @@
 // The daemon's mode state machine (docs/servo.md, "Safety"): every decision about the mode and
-// what it means for the outputs is made here.
+// what it means for the outputs is made here. A const table, one row per mode (the torque, the
+// devices' state asked for on entry and, per event, a handler returning the next mode), in the
+// manner of hal/device_state_machine.cc:
 //
-//   INIT ──bring-up──► STANDBY ──enable──► ACTIVE ──disable──► STANDBY
-//                        │  ▲                │ fault / damp / stop
-//                  fault │  │ acknowledge    ▼
-//                        ▼  │             DAMPING ──after damping_duration──► FAULT (fault)
-//                       FAULT ◄──────────────┘                              ► STANDBY (damp)
-//                                                                           ► STOPPED (stop)
+//            bring-up  enable   disable  damp     acknowledge  stop     fault    damping timer
+//   INIT     STANDBY   refused  -        -        -            STOPPED  FAULT    -
+//   STANDBY  -         ACTIVE¹  -        DAMPING  -            STOPPED  FAULT    -
+//   ACTIVE   -         refused  STANDBY  DAMPING  -            DAMPING  DAMPING  -
+//   DAMPING  -         refused  -        -        -            -²       -³       ⁴
+//   FAULT    -         refused  -        -        STANDBY⁵     STOPPED  -³       -
+//   STOPPED  -         refused  -        -        -            -        -³       -
+//
+//   ¹ refused once a stop was requested. ² DAMPING then ends in STOPPED. ³ an event, once per
+//   reason until acknowledged (in DAMPING the damping then ends in FAULT). ⁴ after
+//   damping_duration_s, unless the caller holds it (the sit-down's settling, motion_sequencer.h):
+//   STOPPED once a stop was requested, else FAULT when a fault caused it, STANDBY after a damp
+//   command. ⁵ with clean inputs; else refused. "-": no transition, no event; a refusal is an
+//   event.
 //
 // STANDBY: devices in OP, 0 N·m. ACTIVE: the controller's torque. DAMPING: τ = −D q̇ on the joints
 // whose inputs are valid, 0 N·m on the others. FAULT: 0 N·m and the devices asked to SAFE-OP
 // (outputs disabled) until an acknowledgement with the faults gone. STOPPED: 0 N·m, the devices
 // asked to PRE-OP; the run is finished once they are there (or the stop timeout passed). Every
-// transition, and every new fault while already safe, is a SafetyEvent with a reason (fixed
-// ring, drained by the loop).
+// transition, every refusal and every new fault while already safe is a SafetyEvent with a reason
+// (fixed ring, drained by the loop).
 //
 // The acknowledgement is a handshake: in FAULT the loop asks the devices back to OP
 // (RequestAcknowledge) and the state machine returns to STANDBY once they are all in OP with
@@ -67,9 +77,6 @@ class SafetyStateMachine {
 
   /// Start of every cycle: its number and time (for events) and the damping timer.
   void BeginCycle(std::uint64_t cycle, std::int64_t now_ns) noexcept;
-  /// While true, DAMPING does not end on its timer (the loop's sit-down: until the robot rests,
-  /// bounded by the loop). Cleared on every transition.
-  void HoldDamping(bool hold) noexcept { hold_damping_ = hold; }
 
   /// Bring-up done: INIT → STANDBY.
   void BringUpComplete() noexcept;
@@ -101,7 +108,9 @@ class SafetyStateMachine {
 
   /// The outputs of this cycle, after the controller: which torque, which device requests,
   /// whether the stop is complete (`devices_down`: every device in PRE-OP or below).
-  SafetyDecision Decide(bool devices_down) noexcept;
+  /// `hold_damping`: DAMPING does not end on its timer at the next cycle's start (the sit-down's
+  /// damping, until the robot rests; bounded by the caller); any transition drops the hold.
+  SafetyDecision Decide(bool devices_down, bool hold_damping = false) noexcept;
 
   /// Events not yet taken by the loop, oldest first; Take() removes one.
   bool Take(SafetyEvent* e) noexcept;
@@ -113,6 +122,32 @@ class SafetyStateMachine {
   bool ever_active() const noexcept { return ever_active_; }
 
  private:
+  friend struct SafetyTable;  // the modes' handlers (safety_state_machine.cc)
+  // what a handler is told: the event's particulars
+  struct Occurrence {
+    EventReason reason = EventReason::kNone;  // enable: why
+    const Fault* fault = nullptr;             // fault
+    bool inputs_ok = false;                   // acknowledge
+  };
+  // a handler's answer: the next mode (the current one: no transition) and the transition's event
+  struct Next {
+    ServoMode mode;
+    EventReason reason = EventReason::kNone;
+    const char* detail = "";
+    int joint = -1, bus = -1;
+  };
+  using Handler = Next (*)(SafetyStateMachine&, const Occurrence&) noexcept;
+  // one row of the table, per mode
+  struct ModeRow {
+    SafetyDecision::Torque torque;
+    bool request_devices;             // entering the mode asks every device for device_request
+    hal::DeviceState device_request;
+    Handler on_bring_up, on_enable, on_disable, on_damp, on_acknowledge, on_stop, on_fault,
+        on_damping_timer;
+  };
+
+  // the current mode's handler in `column`; true when it moved to another mode
+  bool Dispatch(Handler ModeRow::*column, const Occurrence& o) noexcept;
   void Transition(ServoMode to, EventReason why, int joint, int bus, const char* detail) noexcept;
   void Push(const SafetyEvent& e) noexcept;
 

@@ -11,6 +11,7 @@
 #include "hal/config_key.h"
 #include "hal/hal_config.h"
 #include "servo/common/servo_types.h"
+#include "servo/command/command_config.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/estimator.h"

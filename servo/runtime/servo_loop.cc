@@ -5,7 +5,6 @@
 #include <cmath>
 
 #include "hal/clock.h"
-#include "servo/runtime/command_rules.h"
 #include "servo/runtime/output_checker.h"
 
 namespace hyq::servo {
@@ -26,6 +25,16 @@ bool AllDown(const hal::Hal& hal) noexcept {
     for (const auto& d : hal.bus(b).devices())
       if (d.state > hal::DeviceState::kPreOp) return false;
   return true;
+}
+
+MotionConfig MakeMotionConfig(const ServoConfig& c) {
+  return {.stand_up_s = c.stand_up_s,
+          .sit_down_s = c.sit_down_s,
+          .crouch_height_m = c.crouch_height_m,
+          .enable_ramp_s = c.enable_ramp_s,
+          .duration_s = c.duration_s,
+          .settle_speed_rad_s = c.sit_settle_speed_rad_s,
+          .settle_max_s = c.sit_damping_max_s};
 }
 
 Reference MakeReference(const ServoConfig& c, const dynamics::Model& m) {
@@ -67,19 +76,17 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
                 config.clock == ClockMode::kRealtime || config.deadline.stop_in_lockstep),
       estimator_(model, config.estimator, config.period_s()),
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
-      posture_(std::make_unique<PostureMove>(model)),
-      controller_(std::make_unique<Controller>(model, ForClock(config.controller, config.clock))),
+      pipeline_(std::make_unique<ControlPipeline>(model, ForClock(config.controller, config.clock),
+                                                  config.friction, config.disturbance,
+                                                  config.period_s())),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
-      friction_(config.friction),
-      disturbance_(model, config.disturbance, config.period_s()),
       base_gains_(config.controller.feedback),
-      command_targets_{&safety_, controller_.get(), &env_, &base_gains_, &config_.controller.pid,
-                       reference_.get(), config.safety.damp_on_bad_command} {
+      command_port_({&safety_, &pipeline_->controller(), &env_, &base_gains_,
+                     &config_.controller.pid, reference_.get(), &est_status_}),
+      sequencer_(model, reference_.get(), MakeMotionConfig(config), config.period_s(), &ref_,
+                 &joint_ref_) {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
-  id_env_ = env_;
-  reference_->Sample(0.0, &ref_);
-  joint_ref_ = ref_.joints;
-  snap_.num_buses = static_cast<std::uint8_t>(std::min<std::size_t>(hal.num_buses(), kMaxBuses));
+  pipeline_->HoldEnvironment(env_);
 }
 
 ServoLoop::~ServoLoop() = default;
@@ -113,8 +120,8 @@ void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexc
   est_status_ = estimator_.Update(hal_.image(), ref_.joints.stance); clock.Mark(&timing_.estimate_ns);
   SampleReference();                                                 clock.Mark(&timing_.reference_ns);
   RunController();                                                   clock.Mark(&timing_.control_ns);
-  const SafetyDecision decision =
-      safety_.Decide(safety_.mode() == ServoMode::kStopped && AllDown(hal_));
+  const SafetyDecision decision = safety_.Decide(
+      safety_.mode() == ServoMode::kStopped && AllDown(hal_), sequencer_.holds_damping());
   ApplyDecision(decision, now_ns);                                   clock.Mark(&timing_.safety_ns);
   const hal::HalStatus ws = hal_.Write(now_ns);
   SpinInjectedOverrun();                                             clock.Mark(&timing_.write_ns);
@@ -133,12 +140,12 @@ void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
   for (int i = 0; i < 4 && sink_ != nullptr && sink_->PopCommand(&cmd); ++i) {
     // a disable while ACTIVE sits down first when configured (then damps, then 0 N·m)
     if (cmd.kind == ServoCommand::Kind::kDisable && safety_.mode() == ServoMode::kActive &&
-        config_.sit_down_s > 0.0) {
-      RequestSitDown(AfterSit::kDisable);
+        sequencer_.sits_down()) {
+      Relay(sequencer_.RequestSitDown(SitDownCause::kDisable, MotionNow()));
       ++stats_.commands_applied;
       continue;
     }
-    switch (ApplyCommand(cmd, est_status_, command_targets_)) {
+    switch (ApplyCommand(cmd, config_.safety.damp_on_bad_command, &command_port_)) {
       case CommandOutcome::kRejected:
         ++stats_.commands_rejected;
         continue;
@@ -156,61 +163,42 @@ void ServoLoop::TakeCommands(std::int64_t now_ns) noexcept {
   }
   if (safety_.MaybeAutoEnable(est_status_ == EstimatorStatus::kOk)) EnterActive();
   if (stop_requested_.load(std::memory_order_relaxed)) {
-    if (safety_.mode() == ServoMode::kActive && config_.sit_down_s > 0.0) {
-      RequestSitDown(AfterSit::kStop);
+    if (safety_.mode() == ServoMode::kActive && sequencer_.sits_down()) {
+      Relay(sequencer_.RequestSitDown(SitDownCause::kStop, MotionNow()));
     } else {
       safety_.Stop();
     }
   }
 }
 
-// a sit-down starts when the reference has every foot on the ground (a trot: within half a gait
-// cycle), at the latest after 1 s; a stop overrides a pending disable
-void ServoLoop::RequestSitDown(AfterSit then) noexcept {
-  if (phase_ == Phase::kSitDown) return;
-  if (!sit_pending_ || then == AfterSit::kStop) after_sit_ = then;
-  sit_pending_ = true;
-  const auto& st = joint_ref_.stance;
-  const bool all_down = st[0] && st[1] && st[2] && st[3];
-  if (all_down || phase_ == Phase::kStandUp || sit_wait_s_ >= 1.0) {
-    sit_pending_ = false;
-    sit_wait_s_ = 0.0;
-    BeginSitDown(after_sit_);
+// what the motion sequencer is told: the mode and the measured joints
+MotionInputs ServoLoop::MotionNow() const noexcept {
+  MotionInputs in;
+  in.active = safety_.mode() == ServoMode::kActive;
+  in.damping = safety_.mode() == ServoMode::kDamping;
+  in.damping_for_fault = safety_.damping_for_fault();
+  in.cycles_in_mode = safety_.cycles_in_mode();
+  for (int j = 0; j < kNumJoints; ++j) {
+    const auto& joint = hal_.image().joints[static_cast<std::size_t>(j)];
+    in.q_rad(j) = joint.position_rad;
+    const bool ok = joint.valid() && std::isfinite(joint.velocity_rad_s);
+    in.fastest_joint_rad_s =
+        ok ? std::max(in.fastest_joint_rad_s, std::abs(joint.velocity_rad_s)) : HUGE_VAL;
   }
+  return in;
 }
 
-// the controlled stop's first part: from the measured posture down to the crouch, with the
-// feet of the reference's stance on the ground and the others lowered onto it
-void ServoLoop::BeginSitDown(AfterSit then) noexcept {
-  VectorJ q;
-  for (int j = 0; j < kNumJoints; ++j) q(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
-  // the reference's base velocity (a trot's), in the base frame, is braked to rest (stand-up:
-  // none)
-  if (phase_ == Phase::kStandUp) ref_.base = BaseReference{};
-  const double c = std::cos(ref_.base.yaw), s = std::sin(ref_.base.yaw);
-  const Eigen::Vector2d v0_B(c * ref_.base.v_W.x() + s * ref_.base.v_W.y(),
-                             -s * ref_.base.v_W.x() + c * ref_.base.v_W.y());
-  posture_->Start(q, joint_ref_.stance, config_.crouch_height_m, config_.sit_down_s, v0_B);
-  phase_ = Phase::kSitDown;
-  phase_t_ = 0.0;
-  after_sit_ = then;
-  safety_.Note(then == AfterSit::kStop ? EventReason::kStopRequest : EventReason::kDisableCommand,
-               "sitting down to the crouch first");
-}
-
-// the end of a stand-up (the reference starts) or of a sit-down (the deferred request)
-void ServoLoop::AdvancePhase() noexcept {
-  if (phase_ == Phase::kReference || phase_t_ < posture_->duration_s()) return;
-  if (phase_ == Phase::kStandUp) {
-    phase_ = Phase::kReference;
-    t_ref_ = 0.0;
-    q0_ = joint_ref_.q;  // the enable ramp blends from the stand-up's end to the reference
-    return;
+// what the motion sequencer asks for, told to the safety state machine
+void ServoLoop::Relay(const MotionRequests& r) noexcept {
+  const bool stop = r.cause == SitDownCause::kStop;
+  if (r.sit_down_began)
+    safety_.Note(stop ? EventReason::kStopRequest : EventReason::kDisableCommand,
+                 "sitting down to the crouch first");
+  if (r.sit_down_ended) {
+    if (stop) safety_.Stop();
+    else (void)safety_.Damp();  // damping, then STANDBY at 0 N·m
   }
-  sat_down_ = true;
-  if (after_sit_ == AfterSit::kStop) safety_.Stop();
-  else (void)safety_.Damp();  // damping, then STANDBY at 0 N·m
-  phase_ = Phase::kReference;
+  if (r.duration_over) RequestStop();
 }
 
 void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
@@ -222,53 +210,23 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
 }
 
 void ServoLoop::EnterActive() noexcept {
-  t_ref_ = 0.0;
-  controller_->Reset();  // no integral or warm start carried over from an earlier ACTIVE
-  disturbance_.Reset();
+  pipeline_->Reset();  // no integral, warm start or disturbance carried over from an earlier ACTIVE
   active_time_ = 0.0;
-  for (int j = 0; j < kNumJoints; ++j)
-    q0_(j) = hal_.image().joints[static_cast<std::size_t>(j)].position_rad;
-  reference_->Sample(0.0, &ref_);
-  phase_ = Phase::kReference;
-  phase_t_ = 0.0;
-  sat_down_ = false;
-  sit_pending_ = false;
-  sit_wait_s_ = 0.0;
-  if (config_.stand_up_s > 0.0) {
-    // from the resting posture, every foot on the ground, up to the reference's height
-    posture_->Start(q0_, {true, true, true, true}, ref_.base.p_W.z(), config_.stand_up_s);
-    phase_ = Phase::kStandUp;
-  }
+  sequencer_.Enable(MotionNow());
 }
 
+// the motion phase's reference (outside ACTIVE it holds still)
 void ServoLoop::SampleReference() noexcept {
-  if (safety_.mode() != ServoMode::kActive) return;  // the reference holds still outside ACTIVE
-  if (phase_ != Phase::kReference) {
-    if (!posture_->Sample(phase_t_, &joint_ref_))
-      safety_.Report(MakeFault(EventReason::kControllerFailure, -1, -1,
-                               "%s: a leg's inverse kinematics failed",
-                               phase_ == Phase::kStandUp ? "stand-up" : "sit-down"));
-    return;
-  }
-  reference_->Sample(t_ref_, &ref_);
-  joint_ref_ = ref_.joints;
-  // enable ramp: from the posture measured at enable to the reference (smoothstep)
-  if (config_.enable_ramp_s > 0.0 && t_ref_ < config_.enable_ramp_s) {
-    const double x = t_ref_ / config_.enable_ramp_s;
-    const double s = x * x * (3.0 - 2.0 * x), sd = 6.0 * x * (1.0 - x) / config_.enable_ramp_s;
-    const dynamics::VectorJ gap = ref_.joints.q - q0_;
-    joint_ref_.q = q0_ + s * gap;
-    joint_ref_.qd = s * ref_.joints.qd + sd * gap;
-    joint_ref_.qdd = s * ref_.joints.qdd;
-  }
+  if (!sequencer_.Sample(MotionNow()))
+    safety_.Report(MakeFault(EventReason::kControllerFailure, -1, -1,
+                             "%s: a leg's inverse kinematics failed",
+                             ToString(sequencer_.phase())));
 }
 
 void ServoLoop::RunController() noexcept {
   tau_.setZero();
   // outside ACTIVE the μ shown is the command's (or the last estimate below it)
-  for (std::size_t f = 0; f < kNumFeet; ++f)
-    id_env_.mu[f] = config_.friction.enabled ? std::min(friction_.feet()[f].mu_control, env_.mu[f])
-                                             : env_.mu[f];
+  pipeline_->HoldEnvironment(env_);
   if (safety_.mode() != ServoMode::kActive) return;
   if (const Fault f = CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) {
     safety_.Report(f);
@@ -280,18 +238,10 @@ void ServoLoop::RunController() noexcept {
     safety_.Report(f);
     return;
   }
-  EstimateFriction();
-  // the disturbance observer's trunk wrench corrects the model's h for this cycle's controller
-  // (h − d_b; issue 15), after the friction estimate took its forces from the nominal h
-  const bool correct = config_.disturbance.enabled;
-  if (correct) {
-    VectorJ tau_m;
-    const auto& joints = hal_.image().joints;
-    for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
-    dyn_->bias.head<dynamics::kNumBaseDofs>() -= disturbance_.Update(*dyn_, v, tau_m);
-  }
-  id_status_ = controller_->Compute(*dyn_, q, v, joint_ref_, id_env_, dt_, &out_);
-  if (correct) dyn_->bias.head<dynamics::kNumBaseDofs>() += disturbance_.wrench();
+  VectorJ tau_m;
+  const auto& joints = hal_.image().joints;
+  for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+  id_status_ = pipeline_->Compute(*dyn_, q, v, tau_m, estimator_.stance(), joint_ref_, env_, &out_);
   if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
   if (FellBackOnDeadline(out_)) {
     ++stats_.controller_fallbacks_deadline;
@@ -299,45 +249,23 @@ void ServoLoop::RunController() noexcept {
     if (budget && DeadlineSpentByAStall(out_, std::chrono::duration<double>(*budget).count()))
       ++stats_.controller_fallbacks_deadline_stalled;
   }
-  if (const Fault f = CheckControllerOutput(controller_->kind(), id_status_, out_)) {
+  if (const Fault f = CheckControllerOutput(pipeline_->controller().kind(), id_status_, out_)) {
     safety_.Report(f);
     return;
   }
   tau_ = out_.tau_Nm;
 }
 
-// the μ Stage I gets: the configured or commanded one, or the estimate below it (issue 18)
-void ServoLoop::EstimateFriction() noexcept {
-  if (!config_.friction.enabled) return;
-  std::array<FootFrictionInput, kNumFeet> in;
-  const auto& joints = hal_.image().joints;
-  for (int f = 0; f < kNumFeet; ++f) {
-    const auto j = static_cast<std::size_t>(3 * f);
-    const Eigen::Vector3d tau(joints[j].torque_Nm, joints[j + 1].torque_Nm, joints[j + 2].torque_Nm);
-    in[static_cast<std::size_t>(f)] = MeasureFoot(model_, *dyn_, estimator_.v(), f,
-                                                  estimator_.stance()[static_cast<std::size_t>(f)], tau);
-  }
-  friction_.Update(in, env_.mu, dt_);
-  for (std::size_t f = 0; f < kNumFeet; ++f) id_env_.mu[f] = friction_.feet()[f].mu_control;
-}
-
 void ServoLoop::Damping() noexcept {
-  // after a sit-down the legs fold onto their stops under stronger damping, until the robot
-  // rests (every joint slower than sit_settle_speed_rad_s for 0.2 s; at most sit_damping_max_s);
-  // a fault's damping stays as configured (safety.*)
-  const bool sit = sat_down_ && !safety_.damping_for_fault();
-  const double D = sit ? config_.sit_damping_Nms_per_rad : config_.safety.damping_Nms_per_rad;
-  double fastest = 0.0;
+  // after a sit-down the legs fold onto their stops under the sit-down's damping
+  // (motion_sequencer.h, SETTLE); a fault's damping stays as configured (safety.*)
+  const double D = sequencer_.settling() ? config_.sit_damping_Nms_per_rad
+                                         : config_.safety.damping_Nms_per_rad;
   for (int j = 0; j < kNumJoints; ++j) {
     const auto& in = hal_.image().joints[static_cast<std::size_t>(j)];
     const bool ok = in.valid() && std::isfinite(in.velocity_rad_s);
     tau_(j) = ok ? -D * in.velocity_rad_s : 0.0;
-    fastest = ok ? std::max(fastest, std::abs(in.velocity_rad_s)) : HUGE_VAL;
   }
-  if (safety_.cycles_in_mode() <= 1) settled_s_ = 0.0;
-  settled_s_ = fastest < config_.sit_settle_speed_rad_s ? settled_s_ + dt_ : 0.0;
-  const double in_mode_s = static_cast<double>(safety_.cycles_in_mode()) * dt_;
-  safety_.HoldDamping(sit && settled_s_ < 0.2 && in_mode_s < config_.sit_damping_max_s);
 }
 
 // the safety decision applied: the torque the mode allows, the devices' requested state
@@ -359,7 +287,8 @@ void ServoLoop::SpinInjectedOverrun() noexcept {
   overrun_cycles_.fetch_sub(1, std::memory_order_relaxed);
 }
 
-// the deadline, the run's statistics and the reference clock
+// the deadline, the run's statistics and, after an ACTIVE cycle, the motion phase's clock (its
+// requests take effect from the next cycle's start)
 void ServoLoop::EndCycle(const SafetyDecision& d, std::int64_t wakeup_latency_ns,
                          std::int64_t cpu0) noexcept {
   timing_.wakeup_latency_ns = wakeup_latency_ns;
@@ -383,18 +312,7 @@ void ServoLoop::EndCycle(const SafetyDecision& d, std::int64_t wakeup_latency_ns
     stats_.qp_time_sum_us += qp_us;
     stats_.qp_time_max_us = std::max(stats_.qp_time_max_us, qp_us);
     active_time_ += dt_;
-    if (sit_pending_) {
-      sit_wait_s_ += dt_;
-      RequestSitDown(after_sit_);  // the next cycle's reference decides; this one's may too
-    }
-    if (phase_ == Phase::kReference) {
-      t_ref_ += dt_;
-      // the run's duration is reference time: the stand-up and the sit-down come on top
-      if (config_.duration_s > 0.0 && t_ref_ >= config_.duration_s) RequestStop();
-    } else {
-      phase_t_ += dt_;
-      AdvancePhase();
-    }
+    Relay(sequencer_.Advance(MotionNow()));
   }
 }
 
@@ -402,8 +320,9 @@ void ServoLoop::PublishTelemetry(std::int64_t now_ns, hal::HalStatus rs, hal::Ha
                                  ServoMode mode) noexcept {
   FillSnapshot(now_ns, rs, ws);
   if (mode == ServoMode::kActive) {
-    stats_.tracking_error_sum_rad += snap_.tracking_error_rad;
-    stats_.tracking_error_max_rad = std::max(stats_.tracking_error_max_rad, snap_.tracking_error_rad);
+    const double error_rad = snap_.joint_state.tracking_error_rad;
+    stats_.tracking_error_sum_rad += error_rad;
+    stats_.tracking_error_max_rad = std::max(stats_.tracking_error_max_rad, error_rad);
   }
   if (sink_ != nullptr && !sink_->Push(snap_)) ++stats_.telemetry_drops;
   DrainEvents();
@@ -422,106 +341,139 @@ void ServoLoop::DrainEvents() noexcept {
   }
 }
 
+// Writes this cycle's values into the snapshot's messages (utime, cycle and the health message's
+// telemetry counters are the telemetry thread's to set).
 void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept {
   TelemetrySnapshot& s = snap_;
   const auto& image = hal_.image();
+  const auto mode = static_cast<std::int8_t>(safety_.mode());
+  const auto controller = static_cast<std::int8_t>(pipeline_->controller().kind());
   s.cycle = cycle_;
   s.time_ns = now_ns;
-  s.reference_time_s = t_ref_;
-  s.mode = safety_.mode();
-  s.controller = controller_->kind();
+
+  hyq_lcm::lcmt_hyq_joint_state& js = s.joint_state;
+  hyq_lcm::lcmt_hyq_joint_torque& jt = s.joint_torque;
+  js.mode = mode;
+  js.reference_time_s = sequencer_.reference_time_s();
+  jt.mode = mode;
+  jt.controller = controller;
   double err2 = 0.0;
   for (std::size_t j = 0; j < kNumJoints; ++j) {
     const auto& in = image.joints[j];
     const int ji = static_cast<int>(j);
-    s.q_rad[j] = in.position_rad;
-    s.qd_rad_s[j] = in.velocity_rad_s;
-    s.tau_measured_Nm[j] = in.torque_Nm;
-    s.q_ref_rad[j] = joint_ref_.q(ji);
-    s.qd_ref_rad_s[j] = joint_ref_.qd(ji);
-    s.tau_command_Nm[j] = tau_(ji);
-    s.input_status[j] = static_cast<std::uint8_t>(in.status);
+    js.q_rad[j] = in.position_rad;
+    js.qd_rad_s[j] = in.velocity_rad_s;
+    js.tau_measured_Nm[j] = in.torque_Nm;
+    js.q_ref_rad[j] = joint_ref_.q(ji);
+    js.qd_ref_rad_s[j] = joint_ref_.qd(ji);
+    js.input_status[j] = static_cast<std::int8_t>(in.status);
+    jt.tau_command_Nm[j] = tau_(ji);
     const double e = joint_ref_.q(ji) - in.position_rad;
     err2 += std::isfinite(e) ? e * e : 0.0;
   }
-  s.tracking_error_rad = std::sqrt(err2);
+  js.tracking_error_rad = std::sqrt(err2);
+
+  hyq_lcm::lcmt_hyq_base_state& base = s.base_state;
   const VectorQ& q = estimator_.q();
   const VectorV& v = estimator_.v();
   for (int i = 0; i < 3; ++i) {
-    s.base_position_m[static_cast<std::size_t>(i)] = q(i);
-    s.base_velocity_m_s[static_cast<std::size_t>(i)] = v(i);
-    s.base_angular_velocity_rad_s[static_cast<std::size_t>(i)] = v(3 + i);
+    base.position_m[i] = q(i);
+    base.velocity_m_s[i] = v(i);
+    base.angular_velocity_rad_s[i] = v(3 + i);
   }
-  for (int i = 0; i < 4; ++i) s.base_orientation_wxyz[static_cast<std::size_t>(i)] = q(3 + i);
+  for (int i = 0; i < 4; ++i) base.orientation_wxyz[i] = q(3 + i);
+
+  hyq_lcm::lcmt_hyq_contact_state& c = s.contact;
+  hyq_lcm::lcmt_hyq_friction_estimate& fe = s.friction;
   const bool active = safety_.mode() == ServoMode::kActive;
+  c.controller = controller;
+  fe.enabled = config_.friction.enabled;
   for (std::size_t f = 0; f < kNumFeet; ++f) {
-    s.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
-    s.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
-    s.mu[f] = id_env_.mu[f];
-    const FootFriction& fr = friction_.feet()[f];
-    s.mu_upper[f] = env_.mu[f];
-    s.mu_estimate[f] = fr.mu;
-    s.mu_confidence[f] = fr.confidence;
-    s.force_ratio[f] = fr.ratio;
-    s.slip_speed_m_s[f] = fr.slip_speed_m_s;
-    for (int i = 0; i < 3; ++i) s.foot_force_N[f][static_cast<std::size_t>(i)] = fr.force_W(i);
-    s.foot_loaded[f] = fr.loaded ? 1 : 0;
-    s.foot_slipping[f] = fr.slipping ? 1 : 0;
-    s.slips[f] = fr.slips;
-    s.footfalls[f] = fr.footfalls;
+    c.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
+    c.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
+    c.mu[f] = pipeline_->environment().mu[f];
     const auto& imp = out_.impulses[f];
     const Eigen::Vector3d F =
         active && imp.active ? Eigen::Vector3d((imp.normal_Ns * Eigen::Vector3d::UnitZ() +
                                                 imp.tangent_Ns_W) / dt_)
                              : Eigen::Vector3d::Zero();
-    for (int i = 0; i < 3; ++i) s.contact_force_N[f][static_cast<std::size_t>(i)] = F(i);
+    for (int i = 0; i < 3; ++i) c.contact_force_N[f][i] = F(i);
+    const FootFriction& fr = pipeline_->friction().feet()[f];
+    fe.mu_estimate[f] = fr.mu;
+    fe.mu_control[f] = pipeline_->environment().mu[f];
+    fe.mu_upper[f] = env_.mu[f];
+    fe.confidence[f] = fr.confidence;
+    fe.force_ratio[f] = fr.ratio;
+    fe.slip_speed_m_s[f] = fr.slip_speed_m_s;
+    for (int i = 0; i < 3; ++i) fe.force_N[f][i] = fr.force_W(i);
+    fe.loaded[f] = fr.loaded ? 1 : 0;
+    fe.slipping[f] = fr.slipping ? 1 : 0;
+    fe.slips[f] = static_cast<std::int32_t>(fr.slips);
+    fe.footfalls[f] = static_cast<std::int32_t>(fr.footfalls);
   }
-  s.friction_enabled = config_.friction.enabled;
-  s.disturbance_enabled = config_.disturbance.enabled;
-  s.disturbance_held = !active || !config_.disturbance.enabled || disturbance_.held();
+  c.stage1_status = static_cast<std::int8_t>(out_.stage1.status);
+  c.stage2_status = static_cast<std::int8_t>(out_.stage2.status);
+  c.fallback = static_cast<std::int8_t>(out_.fallback);
+  c.stage1_iterations = out_.stage1.iterations;
+  c.stage2_iterations = out_.stage2.iterations;
+  c.stage1_solve_us = 1e6 * out_.stage1.solve_time_s;
+  c.stage2_solve_us = 1e6 * out_.stage2.solve_time_s;
+
+  hyq_lcm::lcmt_hyq_disturbance_estimate& d = s.disturbance;
+  d.enabled = config_.disturbance.enabled;
+  d.held = !active || !config_.disturbance.enabled || pipeline_->disturbance().held();
   for (int i = 0; i < 3; ++i) {
-    s.disturbance_force_N[static_cast<std::size_t>(i)] = disturbance_.wrench()(i);
-    s.disturbance_torque_Nm[static_cast<std::size_t>(i)] = disturbance_.wrench()(3 + i);
+    d.force_N[i] = pipeline_->disturbance().wrench()(i);
+    d.torque_Nm[i] = pipeline_->disturbance().wrench()(3 + i);
   }
-  s.stage1_status = static_cast<std::uint8_t>(out_.stage1.status);
-  s.stage2_status = static_cast<std::uint8_t>(out_.stage2.status);
-  s.fallback = static_cast<std::uint8_t>(out_.fallback);
-  s.stage1_iterations = out_.stage1.iterations;
-  s.stage2_iterations = out_.stage2.iterations;
-  s.stage1_solve_us = 1e6 * out_.stage1.solve_time_s;
-  s.stage2_solve_us = 1e6 * out_.stage2.solve_time_s;
-  s.timing = timing_;
-  s.deadline_misses = stats_.deadline_misses;
-  s.consecutive_misses = stats_.consecutive_misses;
-  s.skipped_cycles = stats_.skipped_cycles;
+  d.payload_kg = -d.force_N[2] / 9.81;
+
+  hyq_lcm::lcmt_hyq_servo_timing& t = s.timing;
+  t.wakeup_latency_ns = timing_.wakeup_latency_ns;
+  t.read_ns = timing_.read_ns;
+  t.estimate_ns = timing_.estimate_ns;
+  t.reference_ns = timing_.reference_ns;
+  t.control_ns = timing_.control_ns;
+  t.safety_ns = timing_.safety_ns;
+  t.write_ns = timing_.write_ns;
+  t.total_ns = timing_.total_ns;
+  t.deadline_misses = static_cast<std::int64_t>(stats_.deadline_misses);
+  t.consecutive_misses = static_cast<std::int32_t>(stats_.consecutive_misses);
+  t.skipped_cycles = static_cast<std::int64_t>(stats_.skipped_cycles);
+
+  hyq_lcm::lcmt_hyq_health& h = s.health;
+  h.mode = mode;
+  h.hal_read_status = static_cast<std::int8_t>(rs);
+  h.hal_write_status = static_cast<std::int8_t>(ws);
+  const std::size_t num_buses = std::min<std::size_t>(hal_.num_buses(), kMaxBuses);
+  h.num_buses = static_cast<std::int8_t>(num_buses);
   std::size_t dev = 0;
-  for (std::size_t b = 0; b < hal_.num_buses() && b < kMaxBuses; ++b) {
-    const auto& c = hal_.bus(b).counters();
-    BusHealth& h = s.buses[b];
-    h.rx_frames = c.rx_frames;
-    h.tx_frames = c.tx_frames;
-    h.wkc_faults = c.wkc_faults;
-    h.missing = c.missing;
-    h.malformed = c.malformed;
-    h.error_frames = c.error_frames;
-    h.emcy = c.emcy;
-    h.bus_off = c.bus_off;
-    h.tx_failed = c.tx_failed;
-    h.driver_dropped = c.driver_dropped;
-    h.wkc_expected = hal_.bus(b).wkc().expected;
-    h.wkc_received = hal_.bus(b).wkc().received;
-    for (const auto& d : hal_.bus(b).devices()) {
+  for (std::size_t b = 0; b < num_buses; ++b) {
+    const auto& counters = hal_.bus(b).counters();
+    hyq_lcm::lcmt_hyq_bus_health& bh = h.buses[b];
+    bh.rx_frames = static_cast<std::int64_t>(counters.rx_frames);
+    bh.tx_frames = static_cast<std::int64_t>(counters.tx_frames);
+    bh.wkc_faults = static_cast<std::int64_t>(counters.wkc_faults);
+    bh.missing = static_cast<std::int64_t>(counters.missing);
+    bh.malformed = static_cast<std::int64_t>(counters.malformed);
+    bh.error_frames = static_cast<std::int64_t>(counters.error_frames);
+    bh.emcy = static_cast<std::int64_t>(counters.emcy);
+    bh.bus_off = static_cast<std::int64_t>(counters.bus_off);
+    bh.tx_failed = static_cast<std::int64_t>(counters.tx_failed);
+    bh.driver_dropped = static_cast<std::int64_t>(counters.driver_dropped);
+    bh.wkc_expected = static_cast<std::int32_t>(hal_.bus(b).wkc().expected);
+    bh.wkc_received = static_cast<std::int32_t>(hal_.bus(b).wkc().received);
+    for (const auto& device : hal_.bus(b).devices()) {
       if (dev >= kMaxDevices) break;
-      s.held_inputs[dev] = d.counters.held;
-      s.max_held_in_row[dev] = d.counters.max_held_in_row;
-      s.device_state[dev++] = static_cast<std::uint8_t>(d.state);
+      h.device_state[dev] = static_cast<std::int8_t>(device.state);
+      h.held_inputs[dev] = static_cast<std::int64_t>(device.counters.held);
+      h.max_held_in_row[dev] = static_cast<std::int32_t>(device.counters.max_held_in_row);
+      ++dev;
     }
   }
-  s.max_held_cycles = static_cast<std::uint32_t>(config_.hal.timing.max_held_cycles);
-  s.num_devices = static_cast<std::uint8_t>(dev);
-  s.hal_read_status = static_cast<std::uint8_t>(rs);
-  s.hal_write_status = static_cast<std::uint8_t>(ws);
-  s.events = safety_.events();
+  h.num_devices = static_cast<std::int8_t>(dev);
+  h.max_held_cycles = static_cast<std::int16_t>(std::min(config_.hal.timing.max_held_cycles, 32767));
+  h.safety_events = static_cast<std::int64_t>(safety_.events());
 }
 
 const char* ToString(ClockMode m) noexcept {

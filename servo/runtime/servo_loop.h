@@ -3,9 +3,12 @@
 //   → telemetry
 // The checks only find faults (input_checker.h, output_checker.h, deadline_monitor.h); every
 // decision about the mode and the outputs is the safety state machine's
-// (safety_state_machine.h); the commands' mode rules are command_rules.h. One call of Cycle() per
-// period, from one thread; nothing in it allocates, locks, logs, blocks or throws. The clock
-// (real time or lock-step) is the caller's: servo/runtime/servo_runner.h.
+// (safety_state_machine.h); the commands' mode rules are servo/command/command_rules.h, acting
+// through command_port.h; the reference stage samples the motion phases (stand-up, reference,
+// sit-down: servo/reference/motion_sequencer.h), whose requests the loop relays to the safety
+// state machine. One call of Cycle() per period, from one thread; nothing in it allocates, locks,
+// logs, blocks or throws. The clock (real time or lock-step) is the caller's:
+// servo/runtime/servo_runner.h.
 #pragma once
 
 #include <atomic>
@@ -15,18 +18,19 @@
 
 #include "dynamics/cycle_dynamics.h"
 #include "hal/hal.h"
+#include "hal/latency_histogram.h"
 #include "hal/lockstep_channel.h"
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/disturbance_observer.h"
 #include "servo/estimation/estimator.h"
 #include "servo/estimation/friction_estimator.h"
-#include "servo/reference/posture.h"
+#include "servo/reference/motion_sequencer.h"
 #include "servo/reference/reference.h"
-#include "servo/runtime/command_rules.h"
+#include "servo/runtime/command_port.h"
+#include "servo/runtime/control_pipeline.h"
 #include "servo/runtime/deadline_monitor.h"
 #include "servo/runtime/input_checker.h"
-#include "servo/runtime/latency_histogram.h"
 #include "servo/runtime/safety_state_machine.h"
 #include "servo/runtime/servo_config.h"
 #include "servo/telemetry/telemetry_snapshot.h"
@@ -50,9 +54,9 @@ struct LoopStats {
   /// of those, the ones whose QP ran under half or over 1.25× its budget: the thread was stalled
   /// (DeadlineSpentByAStall, servo/control/id_types.h), not the QP slow
   std::uint64_t controller_fallbacks_deadline_stalled = 0;
-  LatencyHistogram wakeup;                    // wake-up latency
-  LatencyHistogram cycle;                     // read start .. write end
-  LatencyHistogram control;                   // dynamics + controller
+  hal::LatencyHistogram wakeup;               // wake-up latency
+  hal::LatencyHistogram cycle;                // read start .. write end
+  hal::LatencyHistogram control;              // dynamics + controller
   double tracking_error_sum_rad = 0.0;        // Σ ‖q_ref − q‖ over ACTIVE cycles
   double tracking_error_max_rad = 0.0;
   double qp_time_sum_us = 0.0, qp_time_max_us = 0.0;  // Stage I + II, ACTIVE cycles
@@ -100,10 +104,10 @@ class ServoLoop {
   double published_active_s() const noexcept { return published_active_s_.load(std::memory_order_relaxed); }
   const LoopStats& stats() const noexcept { return stats_; }
   const TelemetrySnapshot& snapshot() const noexcept { return snap_; }
-  const Controller& controller() const noexcept { return *controller_; }
+  const Controller& controller() const noexcept { return pipeline_->controller(); }
   const StateEstimator& estimator() const noexcept { return estimator_; }
-  const FrictionEstimator& friction() const noexcept { return friction_; }
-  const DisturbanceObserver& disturbance() const noexcept { return disturbance_; }
+  const FrictionEstimator& friction() const noexcept { return pipeline_->friction(); }
+  const DisturbanceObserver& disturbance() const noexcept { return pipeline_->disturbance(); }
   std::uint64_t events() const noexcept { return safety_.events(); }
   /// The run's first events (up to kFirstEvents) and last event, for the summary.
   std::span<const SafetyEvent> first_events() const noexcept {
@@ -139,12 +143,9 @@ class ServoLoop {
                         ServoMode mode) noexcept;
 
   void EstimateFriction() noexcept;
-  // ACTIVE's phases: stand-up, the reference, sit-down (then the deferred stop or disable)
-  enum class Phase : std::uint8_t { kStandUp, kReference, kSitDown };
-  enum class AfterSit : std::uint8_t { kStop, kDisable };
-  void RequestSitDown(AfterSit then) noexcept;
-  void BeginSitDown(AfterSit then) noexcept;
-  void AdvancePhase() noexcept;
+  // the motion phases (motion_sequencer.h): what the sequencer is told, what it asks for
+  MotionInputs MotionNow() const noexcept;
+  void Relay(const MotionRequests& r) noexcept;
   void EnterActive() noexcept;
   void Damping() noexcept;
   void FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept;
@@ -163,34 +164,23 @@ class ServoLoop {
   DeadlineMonitor deadline_;
   StateEstimator estimator_;
   std::unique_ptr<Reference> reference_;
-  std::unique_ptr<PostureMove> posture_;
-  Phase phase_ = Phase::kReference;
-  AfterSit after_sit_ = AfterSit::kStop;
-  double phase_t_ = 0.0;  // time in the stand-up or sit-down
-  bool sat_down_ = false;  // the damping that follows is the sit-down's, not a fault's
-  bool sit_pending_ = false;  // a sit-down waits for the gait to have every foot down
-  double sit_wait_s_ = 0.0;
-  double settled_s_ = 0.0;  // after a sit-down: how long every joint has been at rest
-  std::unique_ptr<Controller> controller_;
+  // friction estimate → disturbance observer → controller, shared with the simulated experiment;
+  // its environment() is what the controller gets: env_, or the estimated μ below it
+  std::unique_ptr<ControlPipeline> pipeline_;
   std::unique_ptr<dynamics::CycleDynamics> dyn_;
   ContactEnvironment env_;     // configured or commanded μ (the estimate's upper bound)
-  FrictionEstimator friction_;
-  DisturbanceObserver disturbance_;
-  ContactEnvironment id_env_;  // what the controller gets: env_, or the estimated μ
   FeedbackGains base_gains_;
-  CommandTargets command_targets_;  // what a command may change (built once)
+  CommandPort command_port_;  // what a command may change (built once)
   ReferenceSample ref_;
-  JointReference joint_ref_;  // after the enable ramp
+  JointReference joint_ref_;  // the phase's: the enable ramp, the stand-up or the sit-down
+  MotionSequencer sequencer_;  // writes ref_ and joint_ref_
   IdOutput out_;
   IdStatus id_status_ = IdStatus::kOk;
   dynamics::VectorJ tau_ = dynamics::VectorJ::Zero();
-  dynamics::VectorJ q0_ = dynamics::VectorJ::Zero();  // measured posture at enable
-  double t_ref_ = 0.0;
   double active_time_ = 0.0;
   EstimatorStatus est_status_ = EstimatorStatus::kNoImu;
   bool finished_ = false;
   std::uint64_t cycle_ = 0;
-  std::int64_t cycle_start_ns_ = 0;
   std::atomic<bool> stop_requested_{false};
   std::atomic<ServoMode> published_mode_{ServoMode::kInit};
   std::atomic<std::uint64_t> published_cycles_{0};

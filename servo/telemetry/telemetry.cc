@@ -15,11 +15,11 @@
 
 #include <lcm/lcm-cpp.hpp>
 
-#include "servo/telemetry/command_auth.h"
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_auth.h"
+#include "servo/command/command_channel.h"
 #include "servo/telemetry/lcm_mapping.h"
 #include "servo/telemetry/lcm_url.h"
-#include "servo/telemetry/spsc_ring.h"
+#include "hal/spsc_ring.h"
 
 namespace hyq::servo {
 
@@ -46,6 +46,15 @@ CommandAuthenticator MakeAuthenticator(const CommandChannelConfig& c) {
   return CommandAuthenticator(c.enabled ? LoadCommandKey(c.key_file) : CommandKey{}, a);
 }
 
+// Queues `value`, counting it as pushed or, when the ring is full, as dropped.
+template <class T>
+bool PushCounted(hal::SpscRing<T>* ring, const T& value, std::atomic<std::uint64_t>* pushed,
+                 std::atomic<std::uint64_t>* dropped) noexcept {
+  const bool ok = ring->TryPush(value);
+  (ok ? pushed : dropped)->fetch_add(1, std::memory_order_relaxed);
+  return ok;
+}
+
 }  // namespace
 
 struct Telemetry::Impl {
@@ -61,9 +70,9 @@ struct Telemetry::Impl {
   std::unique_ptr<lcm::LCM> lcm;
   lcm::Subscription* subscription = nullptr;
 
-  SpscRing<TelemetrySnapshot> snapshots;  // servo -> telemetry thread
-  SpscRing<SafetyEvent> events;           // servo -> telemetry thread
-  SpscRing<ServoCommand> commands;        // telemetry thread -> servo
+  hal::SpscRing<TelemetrySnapshot> snapshots;  // servo -> telemetry thread
+  hal::SpscRing<SafetyEvent> events;           // servo -> telemetry thread
+  hal::SpscRing<ServoCommand> commands;        // telemetry thread -> servo
 
   std::atomic<std::uint64_t> snapshots_pushed{0}, snapshots_dropped{0}, snapshots_published{0};
   std::atomic<std::uint64_t> events_pushed{0}, events_dropped{0}, events_published{0};
@@ -85,14 +94,6 @@ struct Telemetry::Impl {
   TelemetrySnapshot current;
   bool have_current = false;
   SafetyEvent event_in;
-  hyq_lcm::lcmt_hyq_joint_state joint_state{};
-  hyq_lcm::lcmt_hyq_joint_torque joint_torque{};
-  hyq_lcm::lcmt_hyq_base_state base_state{};
-  hyq_lcm::lcmt_hyq_contact_state contact{};
-  hyq_lcm::lcmt_hyq_friction_estimate friction{};
-  hyq_lcm::lcmt_hyq_disturbance_estimate disturbance{};
-  hyq_lcm::lcmt_hyq_servo_timing timing{};
-  hyq_lcm::lcmt_hyq_health health{};
   hyq_lcm::lcmt_hyq_event event{};
   // UDP multicast is best effort and a busy subscriber (lcm-logger's receive ring) loses
   // datagrams in bursts: each event is published again kRepeatDelays after its first copy, in
@@ -116,8 +117,8 @@ struct Telemetry::Impl {
   void Run();
   void HandleOne() noexcept;
   bool DrainOnce();
-  void PublishSnapshot(const TelemetrySnapshot& s);
-  void PublishHealth(const TelemetrySnapshot& s);
+  void PublishSnapshot(TelemetrySnapshot* s);
+  void PublishHealth(TelemetrySnapshot* s);
   TelemetryStats Stats() const noexcept;
   void PublishEvent(const SafetyEvent& e, bool repeat = true);
   void PublishDueRepeats(bool all);
@@ -170,11 +171,12 @@ Telemetry::Telemetry(const TelemetryConfig& config, const CommandChannelConfig& 
   m.ch_event = channel("EVENT");
   for (std::string* s : {&m.event.from_name, &m.event.to_name, &m.event.reason, &m.event.detail})
     s->reserve(kEventStringCapacity);
-  m.buffer.resize(std::max({m.joint_state.getEncodedSize(), m.joint_torque.getEncodedSize(),
-                            m.base_state.getEncodedSize(), m.contact.getEncodedSize(),
-                            m.friction.getEncodedSize(),
-                            m.timing.getEncodedSize(), m.health.getEncodedSize(),
-                            m.event.getEncodedSize() + 4 * static_cast<int>(kEventStringCapacity)}));
+  const TelemetrySnapshot& s = m.current;
+  m.buffer.resize(static_cast<std::size_t>(std::max(
+      {s.joint_state.getEncodedSize(), s.joint_torque.getEncodedSize(),
+       s.base_state.getEncodedSize(), s.contact.getEncodedSize(), s.friction.getEncodedSize(),
+       s.disturbance.getEncodedSize(), s.timing.getEncodedSize(), s.health.getEncodedSize(),
+       m.event.getEncodedSize() + 4 * static_cast<int>(kEventStringCapacity)})));
 }
 
 Telemetry::~Telemetry() { Stop(); }
@@ -194,23 +196,12 @@ void Telemetry::Stop() {
 }
 
 bool Telemetry::Push(const TelemetrySnapshot& snapshot) noexcept {
-  if (!impl_) return false;
-  if (!impl_->snapshots.TryPush(snapshot)) {
-    impl_->snapshots_dropped.fetch_add(1, std::memory_order_relaxed);
-    return false;
-  }
-  impl_->snapshots_pushed.fetch_add(1, std::memory_order_relaxed);
-  return true;
+  return impl_ && PushCounted(&impl_->snapshots, snapshot, &impl_->snapshots_pushed,
+                              &impl_->snapshots_dropped);
 }
 
 bool Telemetry::PushEvent(const SafetyEvent& event) noexcept {
-  if (!impl_) return false;
-  if (!impl_->events.TryPush(event)) {
-    impl_->events_dropped.fetch_add(1, std::memory_order_relaxed);
-    return false;
-  }
-  impl_->events_pushed.fetch_add(1, std::memory_order_relaxed);
-  return true;
+  return impl_ && PushCounted(&impl_->events, event, &impl_->events_pushed, &impl_->events_dropped);
 }
 
 bool Telemetry::PopCommand(ServoCommand* command) noexcept {
@@ -265,7 +256,7 @@ void Telemetry::Impl::Run() {
   while (DrainOnce()) {
   }
   if (num_repeats > 0 || have_current) std::this_thread::sleep_for(kStopSettle);
-  if (have_current) PublishHealth(current);
+  if (have_current) PublishHealth(&current);
   PublishDueRepeats(true);
 }
 
@@ -290,7 +281,7 @@ bool Telemetry::Impl::DrainOnce() {
   }
   while (snapshots.TryPop(&current)) {
     have_current = true;
-    PublishSnapshot(current);
+    PublishSnapshot(&current);
     snapshots_published.fetch_add(1, std::memory_order_relaxed);
     any = true;
     // events raised meanwhile go out before the next snapshot
@@ -315,26 +306,26 @@ void Telemetry::Impl::Publish(const std::string& channel, const M& msg) {
   (ok ? messages_published : publish_failures).fetch_add(1, std::memory_order_relaxed);
 }
 
-void Telemetry::Impl::PublishSnapshot(const TelemetrySnapshot& s) {
+void Telemetry::Impl::PublishSnapshot(TelemetrySnapshot* s) {
   const auto publish = [&](std::uint32_t every, const std::string& channel, auto* msg) {
-    if (!Due(s.cycle, every)) return;
-    ToLcm(s, msg);
+    if (!Due(s->cycle, every)) return;
+    Stamp(*s, msg);
     Publish(channel, *msg);
   };
-  publish(config.joint_state_every, ch_joint_state, &joint_state);
-  publish(config.joint_torque_every, ch_joint_torque, &joint_torque);
-  publish(config.base_state_every, ch_base_state, &base_state);
-  publish(config.contact_every, ch_contact, &contact);
-  publish(config.friction_every, ch_friction, &friction);
-  publish(config.disturbance_every, ch_disturbance, &disturbance);
-  publish(config.timing_every, ch_timing, &timing);
-  if (Due(s.cycle, config.health_every)) PublishHealth(s);
+  publish(config.joint_state_every, ch_joint_state, &s->joint_state);
+  publish(config.joint_torque_every, ch_joint_torque, &s->joint_torque);
+  publish(config.base_state_every, ch_base_state, &s->base_state);
+  publish(config.contact_every, ch_contact, &s->contact);
+  publish(config.friction_every, ch_friction, &s->friction);
+  publish(config.disturbance_every, ch_disturbance, &s->disturbance);
+  publish(config.timing_every, ch_timing, &s->timing);
+  if (Due(s->cycle, config.health_every)) PublishHealth(s);
 }
 
-void Telemetry::Impl::PublishHealth(const TelemetrySnapshot& s) {
-  hyq_lcm::lcmt_hyq_health& m = health;
-  ToLcm(s, Stats(), &m);
-  Publish(ch_health, m);
+void Telemetry::Impl::PublishHealth(TelemetrySnapshot* s) {
+  Stamp(*s, &s->health);
+  SetCounters(Stats(), &s->health);
+  Publish(ch_health, s->health);
 }
 
 void Telemetry::Impl::PublishDueRepeats(bool all) {
@@ -381,7 +372,7 @@ void Telemetry::Impl::Reject(std::int64_t sequence, const char* why) {
   SafetyEvent e;
   e.cycle = have_current ? current.cycle : 0;
   e.time_ns = have_current ? current.time_ns : 0;
-  e.from = e.to = have_current ? current.mode : ServoMode::kInit;
+  e.from = e.to = have_current ? static_cast<ServoMode>(current.health.mode) : ServoMode::kInit;
   e.reason = EventReason::kCommandRejected;
   std::snprintf(e.detail.data(), e.detail.size(), "seq %lld: %s",
                 static_cast<long long>(sequence), why);

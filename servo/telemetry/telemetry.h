@@ -2,12 +2,12 @@
 //
 // The servo thread hands one TelemetrySnapshot per cycle and SafetyEvents as they happen to
 // Push/PushEvent, and takes validated ServoCommands from PopCommand. Those three calls only touch
-// lock-free SPSC rings (servo/telemetry/spsc_ring.h): they never allocate, lock, block or throw, whatever
-// the LCM side does. A telemetry thread (Start/Stop) empties the rings, fills preallocated LCM
-// messages (lcmtypes/, package hyq_lcm), publishes them, and, when the command channel is
-// enabled, receives commands and has them decoded, validated and rate-limited
-// (servo/telemetry/command_channel.h) before queueing them for the servo. The message mapping is
-// servo/telemetry/lcm_mapping.h.
+// lock-free SPSC rings (hal/spsc_ring.h): they never allocate, lock, block or throw, whatever the
+// LCM side does. A snapshot is made of the LCM messages themselves (telemetry_snapshot.h). A
+// telemetry thread (Start/Stop) empties the rings, stamps the messages (servo/telemetry/
+// lcm_mapping.h) and publishes them, and, when the command channel is enabled, receives commands
+// and has them authenticated (servo/command/command_auth.h), decoded, validated and rate-limited
+// (servo/command/command_channel.h) before queueing them for the servo.
 #pragma once
 
 #include <cstddef>
@@ -17,6 +17,7 @@
 #include <string>
 #include <vector>
 
+#include "servo/command/command_config.h"
 #include "servo/telemetry/telemetry_config.h"
 #include "servo/telemetry/telemetry_snapshot.h"
 

@@ -16,16 +16,11 @@
 #include "tests/drivers/test_util.h"
 #include "tests/support/no_heap_guard.h"
 
-namespace hyq::drivers {
+namespace hyq::drivers::testing {
 namespace {
 
 using hal::CanFrame;
 using hal::CanStatus;
-using testing::Classic;
-using testing::Error;
-using testing::Fd;
-using testing::Remote;
-using testing::SameFrame;
 
 std::string Line(CanFrame f, std::int64_t t_ns, std::string_view iface = "vcan0") {
   f.timestamp_ns = t_ns;
@@ -294,9 +289,9 @@ TEST(Candump, RecordingChannelLogsBothDirections) {
 }
 
 }  // namespace
-}  // namespace hyq::drivers
+}  // namespace hyq::drivers::testing
 
-namespace hyq::drivers {
+namespace hyq::drivers::testing {
 namespace {
 
 TEST(Candump, NoHeapWhenRecordingOrReplaying) {
@@ -325,4 +320,4 @@ TEST(Candump, NoHeapWhenRecordingOrReplaying) {
 }
 
 }  // namespace
-}  // namespace hyq::drivers
+}  // namespace hyq::drivers::testing

@@ -10,15 +10,10 @@
 
 #include "tests/drivers/test_util.h"
 
-namespace hyq::drivers {
+namespace hyq::drivers::testing {
 namespace {
 
 using hal::CanFrame;
-using testing::Classic;
-using testing::Error;
-using testing::Fd;
-using testing::Remote;
-using testing::SameFrame;
 
 std::vector<std::uint8_t> FromHex(const std::string& hex) {
   std::vector<std::uint8_t> out;
@@ -201,4 +196,4 @@ TEST(MsgpackFrame, RandomBytesNeverCrash) {
 }
 
 }  // namespace
-}  // namespace hyq::drivers
+}  // namespace hyq::drivers::testing

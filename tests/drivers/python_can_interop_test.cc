@@ -13,19 +13,11 @@
 #include "drivers/udp_multicast_channel.h"
 #include "tests/drivers/test_util.h"
 
-namespace hyq::drivers {
+namespace hyq::drivers::testing {
 namespace {
 
 using hal::CanFrame;
 using hal::CanStatus;
-using testing::Child;
-using testing::Classic;
-using testing::Error;
-using testing::Fd;
-using testing::ReceiveN;
-using testing::Remote;
-using testing::SameFrame;
-using testing::TestPort;
 
 constexpr const char* kPython = "/usr/bin/python3";
 
@@ -192,4 +184,4 @@ TEST(PythonCanInterop, PythonCanReadsOurCandumpLog) {
 }
 
 }  // namespace
-}  // namespace hyq::drivers
+}  // namespace hyq::drivers::testing

@@ -21,19 +21,12 @@
 #include "tests/drivers/test_util.h"
 #include "tests/support/no_heap_guard.h"
 
-namespace hyq::drivers {
+namespace hyq::drivers::testing {
 namespace {
 
 using hal::BusState;
 using hal::CanFrame;
 using hal::CanStatus;
-using testing::Classic;
-using testing::Drain;
-using testing::Error;
-using testing::Fd;
-using testing::ReceiveN;
-using testing::Remote;
-using testing::SameFrame;
 
 bool FdMode() {
   const char* m = std::getenv("HYQ_VCAN_MODE");
@@ -214,7 +207,7 @@ TEST(SocketCan, CanUtilsCandumpRecordsUsAndCanplayerPlaysOurLog) {
   const std::string theirs = dir + "/hyq_candump.log", ours = dir + "/hyq_ours.log";
 
   // candump -L records what our channel sends on vcan2; our reader reads its log. Waits on what
-  // candump wrote, not on a guessed time (issue 14: 800 ms was not enough in a busy VM): a marker
+  // candump wrote, not on a guessed time (a fixed wait is never enough on a busy machine): a marker
   // frame goes out until candump has recorded it (it is bound then), then the frames, until
   // they are all in its log (30 s guards).
   const CanFrame marker = Classic(0x7EE, {0xAA});
@@ -269,4 +262,4 @@ TEST(SocketCan, CanUtilsCandumpRecordsUsAndCanplayerPlaysOurLog) {
 }
 
 }  // namespace
-}  // namespace hyq::drivers
+}  // namespace hyq::drivers::testing

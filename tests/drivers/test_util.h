@@ -1,5 +1,6 @@
 // Helpers for the drivers tests: child processes with a readable stdout, frame builders, receiving
-// and draining channels, writing candump logs, and the network-namespace check.
+// and draining channels, writing candump logs, and the network-namespace check. The drivers tests
+// are written inside hyq::drivers::testing, so they name these unqualified.
 #pragma once
 
 #include <gtest/gtest.h>

@@ -19,19 +19,11 @@
 #include "tests/drivers/test_util.h"
 #include "tests/support/no_heap_guard.h"
 
-namespace hyq::drivers {
+namespace hyq::drivers::testing {
 namespace {
 
 using hal::CanFrame;
 using hal::CanStatus;
-using testing::Classic;
-using testing::Drain;
-using testing::Error;
-using testing::Fd;
-using testing::ReceiveN;
-using testing::Remote;
-using testing::SameFrame;
-using testing::TestPort;
 
 UdpMulticastOptions Opts(std::uint16_t port, bool fd = true) {
   UdpMulticastOptions o;
@@ -270,9 +262,9 @@ TEST(UdpMulticastChannel, OpensFromSpec) {
 }
 
 }  // namespace
-}  // namespace hyq::drivers
+}  // namespace hyq::drivers::testing
 
-namespace hyq::drivers {
+namespace hyq::drivers::testing {
 namespace {
 
 TEST(HyqCandumpTool, RecordsAndPlaysTheVirtualBus) {
@@ -314,4 +306,4 @@ TEST(HyqCandumpTool, RecordsAndPlaysTheVirtualBus) {
 }
 
 }  // namespace
-}  // namespace hyq::drivers
+}  // namespace hyq::drivers::testing

@@ -111,8 +111,8 @@ TEST(UrdfLoader, MissingPosture) {
   EXPECT_THAT(LoadError(xml), HasSubstr("expected a <hyq_posture name=\"standing\""));
 }
 
-// issue 13 finding 8: a NaN or out-of-range standing posture loaded, and the servo would drive
-// the robot towards it after enable
+// a NaN or out-of-range standing posture is refused at load: the servo would drive the robot
+// towards it after enable
 TEST(UrdfLoader, PostureNaNOrOutsideTheLimits) {
   std::string xml = Replace(ProjectUrdfText(), "<joint name=\"lf_kfe_joint\" position=\"-1.5\"/>",
                             "<joint name=\"lf_kfe_joint\" position=\"nan\"/>");

@@ -212,7 +212,7 @@ TEST_F(EmulatorAlone, DeadMasterTripsTheBoardsOnTheirOwnTimer) {
   EXPECT_EQ(emu_->counters(1).setpoint_timeouts, 3u);
 }
 
-// CiA 301 heartbeat consumer of the master (issue 13, finding 2): SYNCs and set-points keep
+// CiA 301 heartbeat consumer of the master (a board must drop its torque when the master is gone): SYNCs and set-points keep
 // coming, but the master's heartbeat stops: 200 ms later the board is at 0 N·m, out of OP, with
 // EMCY 0x8130. Before the first heartbeat the consumer is not active.
 TEST_F(EmulatorAlone, MasterHeartbeatConsumerTripsWhenTheHeartbeatStops) {

@@ -117,7 +117,7 @@ TEST(HalConfigLoader, BadValuesNameFileLineKeyExpectedAndFound) {
   m = ErrorAfterEdit("range_deg: [-70, 25]", "range_deg: [25, -70]");
   EXPECT_NE(m.find("range_deg': expected min < max"), std::string::npos) << m;
 
-  // renamed (#17): the old key is refused with the new one's name, not silently ignored
+  // renamed: the old key is refused with the new one's name, not silently ignored
   m = ErrorAfterEdit("  max_held_cycles: 3", "  max_missed_cycles: 3");
   EXPECT_NE(m.find("key 'timing.max_missed_cycles': expected timing.max_held_cycles"),
             std::string::npos) << m;
@@ -144,7 +144,7 @@ TEST(HalConfigLoader, SemanticErrorsFromValidationNameTheFile) {
   EXPECT_NE(m.find("calibration of lf_hfe_joint"), std::string::npos) << m;
 }
 
-// issue 13 finding 8: these passed --check
+// configurations that must be refused at load, each naming the key and what it expected
 TEST(HalConfigLoader, DuplicateBusesAndAMissingImuAreErrors) {
   std::string m = ErrorAfterEdit("  - name: rf\n", "  - name: lf\n");
   EXPECT_NE(m.find("buses[1]: expected a unique bus name, found 'lf' a second time (buses[0])"),

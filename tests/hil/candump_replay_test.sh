@@ -95,8 +95,8 @@ for bus, joints in BUS_JOINTS.items():
     if first_bad:
         print(f"FAIL: {bus}: cycle {first_bad[0]} {first_bad[1]}: telemetry (q, qd, tau) {first_bad[2]}, "
               f"replay {first_bad[3]}")
-    # python-can's logger records best effort (a busy machine loses frames: issue 14 saw 30 %
-    # of the rows comparable beside two CPU hogs): what must hold is that every row that can be
+    # python-can's logger records best effort (a busy machine loses frames: beside two CPU hogs
+    # 30 % of the rows were comparable): what must hold is that every row that can be
     # compared is equal and that there are enough of them to mean something (the runner-up
     # alignment is typically one SYNC-counter wrap away; hundreds of equal rows settle it)
     if mismatched or compared < 100:

@@ -4,8 +4,8 @@
 #
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR trot
 #       5 s of trot on mu = 0.1 with the two-stage ID in lock-step: the daemon stops cleanly, the
-#       robot does not fall while ACTIVE, the mean tracking error <= 0.047 rad (1.5 x the first
-#       wave's in-process 0.031 rad; with the shipped, tuned gains: 0.021 rad over 5 s, 0.034 rad
+#       robot does not fall while ACTIVE, the mean tracking error <= 0.047 rad (1.5 x the untuned
+#       gains' in-process 0.031 rad; with the shipped, tuned gains: 0.021 rad over 5 s, 0.034 rad
 #       over 60 s), no deadline
 #       fault (at most 5 single misses: see below), no fault event, and the LCM log decodes completely with our types.
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR fault SPEC REASON
@@ -16,13 +16,13 @@
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR realtime [DURATION]
 #       the real-time clock (1 kHz, SCHED_FIFO daemon and plant) with the shipped configuration,
 #       DURATION s (default 5) of trot on mu = 0.1 with the two-stage ID: no fault, ACTIVE
-#       throughout, no fall, held inputs within their limit (issue 17).
+#       throughout, no fall, held inputs within their limit.
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR plant_stall
 #       real time, shipped configuration: an 8 ms stall of hyq-sim's stepping thread while the
 #       daemon trots; the boards answer from their own thread, so no fault; without that thread
-#       (--bus-thread off) the same stall stops the daemon on input_missing (issue 17).
+#       (--bus-thread off) the same stall stops the daemon on input_missing.
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR compare
-#       issue 15: the shipped (tuned) PID and two-stage ID, 5 s of trot on mu = 0.1, lock-step,
+#       the shipped (tuned) PID and two-stage ID, 5 s of trot on mu = 0.1, lock-step,
 #       on a plant that is not the model (hyq-sim --profile realistic --hydraulics off
 #       --delay-cycles 0: payload, link errors of seed 1, joint friction, sensor biases; the
 #       hydraulics and the extra cycle of delay make every tuned controller fault, see
@@ -123,8 +123,8 @@ PY
 # configuration, for the runs that check something other than timing.
 # real time, with HYQ_RT_PREFLIGHT=1 only: can this machine keep a 1 kHz SCHED_FIFO loop at all:
 # 3 s of cyclictest, one thread per core the run uses; a wake-up later than the hold the daemon
-# allows a missing answer: SKIP (exit 77). Off by default since issue 17's bus thread and answer
-# wait: the daemon now rides through single stalls of either core far longer than the hold (the
+# allows a missing answer: SKIP (exit 77). Off by default: with hyq-sim's bus thread and the
+# daemon's answer wait the daemon rides through single stalls of either core far longer than the hold (the
 # VM's 9-16 ms), and a run the machine did break is still recognised after it (below)
 realtime_preflight() {
   hold_us=$((1000 * $(sed -n 's/^  max_held_cycles: *\([0-9]*\).*/\1/p' "$here/config/hyq_hal.yaml")))
@@ -146,10 +146,18 @@ relax_deadline() {
   printf 'deadline:\n  budget_fraction: 1.0\n  max_consecutive_misses: 1000\n' >> "$1"
 }
 
+# servo_config FILE HAL [SED_ARG...]: the shipped simulation configuration, usable from FILE
+source "$here/tests/support/sim_servo_config.sh"
+servo_config() { sim_servo_config "$here" "$@"; }
+
+# The first lines of a script run under unshare -n: the loopback up, carrying the multicast buses.
+netns_script_head='#!/bin/bash
+set -u
+ip link set lo up; ip route add 224.0.0.0/4 dev lo'
+
 # The shipped simulation configuration with the deadline policy relaxed; prints its path.
 relaxed_deadline_config() {
-  sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
-      "$here/config/hyq_servo_sim.yaml" > "$out/relaxed_servo.yaml"
+  servo_config "$out/relaxed_servo.yaml" "$here/config/hyq_hal.yaml"
   relax_deadline "$out/relaxed_servo.yaml"
   echo "$out/relaxed_servo.yaml"
 }
@@ -178,14 +186,14 @@ with_stall_retries() {
 case "$mode" in
   trot)
     # DURATION s (default 5) of lock-step trot on mu = 0.1 with the two-stage ID; no QP of it
-    # may fall back (issue 16: a fallback is Stage I's torque or the contact-free ID)
+    # may fall back (a fallback is Stage I's torque or the contact-free ID)
     dur=${1:-5}
     with_stall_retries "$dur" "$here/scripts/hil.sh" --build "$build" --out "$out" --duration "$dur" --quiet
     cat "$out/servod.log" | tail -0
     [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "hil.sh exit $rc"; }
     check_json "s['final_mode'] == 'stopped' and s['active_s'] >= $dur - 0.01"
     check_json 'not h["fell_while_active"]'
-    check_json 'not sim["fell"]'   # after the stop either: it sits down (issue 19)
+    check_json 'not sim["fell"]'   # after the stop either: it sits down
     check_json 's["tracking_error_mean_rad"] <= 1.5 * 0.031'
     # lock-step deadlines are the servo thread's CPU time; the loopback multicast's softirq work
     # (the other process's frames too) is charged to the sending thread now and then, a few ms
@@ -211,7 +219,7 @@ for r in csv.DictReader(open(sys.argv[1])):
               f"({r['stage1_iterations (count)']} it, {float(r['stage1_solve_us (us)']):.0f} us), Stage II "
               f"{names[int(r['stage2_status (enum)'])]} ({r['stage2_iterations (count)']} it, {float(r['stage2_solve_us (us)']):.0f} us)")
 PY
-    # issue 16: none from a QP that ran out of iterations (before: 12-20 per 60 s run), none from
+    # none from a QP that ran out of iterations, none from
     # a QP too slow for its 400 us time budget (config/hyq_servo_sim.yaml; lock-step: the servo
     # thread's CPU time, qp/deadline.h). A fallback on the budget that a stalled thread caused
     # (the QP's own time under half or over 1.25x the budget: the VMs here deschedule a vCPU for
@@ -225,7 +233,7 @@ PY
     fi
     ;;
   realtime)
-    # issue 17: the real-time clock with the SHIPPED configuration (config/hyq_servo_sim.yaml,
+    # the real-time clock with the SHIPPED configuration (config/hyq_servo_sim.yaml,
     # config/hyq_hal.yaml: no relaxed tolerance): the daemon's servo thread and hyq-sim's stepping
     # thread SCHED_FIFO (80 / 70), each on its own core, 1 kHz, DURATION s of trot on mu = 0.1
     # with the two-stage ID; no fault of any kind, the daemon ACTIVE the whole time, no fall
@@ -334,7 +342,7 @@ PY
     check_json 'sim["sync_phase_us"] == 500 and sim["sync_phase_error"]["count"] >= 1000 * s["active_s"] and sim["sync_phase_error"]["p50_us"] <= 250'
     ;;
   plant_stall)
-    # issue 17: hyq-sim's stepping thread stalls for 8 ms of wall time (over twice the 3-cycle
+    # hyq-sim's stepping thread stalls for 8 ms of wall time (over twice the 3-cycle
     # hold) at 4 s of simulated time (--stall: what a preempted core does to the plant) in a
     # real-time run with the shipped configuration. The boards answer from their own thread (hyq-sim's bus thread) with the
     # last state there is, so the daemon holds nothing for long and trots on: no fault, and the
@@ -420,7 +428,7 @@ PY
     [[ $rc -eq 0 ]] || { tail -n 20 "$out/servod.log"; fail "hil.sh exit $rc after SIGTERM"; }
     grep -q "Terminated: controlled stop" "$out/servod.log" || true
     check_json 's["final_mode"] == "stopped"'
-    # issue 19: the stop sits the robot down to the crouch first (an event without a mode
+    # the stop sits the robot down to the crouch first (an event without a mode
     # change), then damps, then 0 N·m; hyq-sim sees it sit down, slowly, not fall
     check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['detail'] == 'sitting down to the crouch first'"
     check_json "[e for e in s['event_log'] if e['from'] == 'active' and e['to'] != 'active'][0]['reason'] == 'stop_request'"
@@ -433,14 +441,11 @@ PY
     cmd="$build/tools/hyq-command/hyq-command"
     "$cmd" --generate-key "$out/robot.key" >/dev/null || fail "hyq-command --generate-key"
     "$cmd" --generate-key "$out/other.key" >/dev/null || fail "hyq-command --generate-key"
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
-        -e "s|^  auto_enable: .*|  auto_enable: false|" "$here/config/hyq_servo_sim.yaml" > "$out/servo.yaml"
+    servo_config "$out/servo.yaml" "$here/config/hyq_hal.yaml" -e "s|^  auto_enable: .*|  auto_enable: false|"
     # the deadline policy relaxed, as for the faults: this run checks the command channel
     relax_deadline "$out/servo.yaml"
     cat > "$out/commands.sh" <<EOS
-#!/bin/bash
-set -u
-ip link set lo up; ip route add 224.0.0.0/4 dev lo
+$netns_script_head
 "$build/tools/hyq-sim/hyq-sim" --mode lockstep --mu 0.1 --summary "$out/sim.json" --quiet 2>"$out/sim.log" &
 sim=\$!
 sleep 0.2
@@ -471,14 +476,11 @@ EOS
   steer)
     cmd="$build/tools/hyq-command/hyq-command"
     "$cmd" --generate-key "$out/robot.key" >/dev/null || fail "hyq-command --generate-key"
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
-        "$here/config/hyq_servo_sim.yaml" > "$out/servo.yaml"
+    servo_config "$out/servo.yaml" "$here/config/hyq_hal.yaml"
     # the deadline policy relaxed, as for the faults: this run checks where the robot goes
     relax_deadline "$out/servo.yaml"
     cat > "$out/steer.sh" <<EOS
-#!/bin/bash
-set -u
-ip link set lo up; ip route add 224.0.0.0/4 dev lo
+$netns_script_head
 "$build/tools/hyq-sim/hyq-sim" --mode lockstep --mu 0.8 --summary "$out/sim.json" --truth "$out/truth.csv" --quiet 2>"$out/sim.log" &
 sim=\$!
 sleep 0.2
@@ -525,17 +527,15 @@ EOS
   kill9)
     # the deadline policy relaxed: this run checks the boards' reaction, not the daemon's timing
     # on a shared 2-core machine (a daemon that stopped on its own would leave nothing to test)
-    # and the late-answer tolerances too (hyq-sim steps on SCHED_OTHER beside it: issue 17)
+    # and the late-answer tolerances too (hyq-sim steps on SCHED_OTHER beside it)
     sed -e 's|^  max_held_cycles: .*|  max_held_cycles: 200|' "$here/config/hyq_hal.yaml" > "$out/rt_hal.yaml"
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $out/rt_hal.yaml|" \
-        "$here/config/hyq_servo_sim.yaml" > "$out/rt_servo.yaml"
+    servo_config "$out/rt_servo.yaml" "$out/rt_hal.yaml"
     relax_deadline "$out/rt_servo.yaml"
     cat > "$out/kill9.sh" <<EOS
-#!/bin/bash
-set -u
-ip link set lo up; ip route add 224.0.0.0/4 dev lo
-# the plant steps on its own clock: SCHED_FIFO below the servo thread (80), as issue 17 puts it,
-# so that a busy machine (the suite beside two CPU hogs) does not starve it (plain when chrt fails)
+$netns_script_head
+# the plant steps on its own clock: SCHED_FIFO below the servo thread (80), as hyq-sim's stepping
+# thread runs in real time, so that a busy machine (the suite beside two CPU hogs) does not
+# starve it (plain when chrt fails)
 rt=(chrt -f 70); chrt -f 70 true 2>/dev/null || rt=()
 "\${rt[@]}" "$build/tools/hyq-sim/hyq-sim" --mode realtime --mu 0.1 --summary "$out/sim.json" --truth "$out/truth.csv" --quiet 2>"$out/sim.log" &
 sim=\$!
@@ -571,10 +571,9 @@ PY
     script="$out/in_vm.sh"
     # software-emulated CPU (TCG): a cycle takes milliseconds, so this run checks the SocketCAN
     # path, not timing: generous lock-step waits, the deadline policy off, the PID controller
-    sed -e "s|^  urdf: .*|  urdf: $here/config/robots/hyq.urdf|" -e "s|^  hal: .*|  hal: $here/config/hyq_hal.yaml|" \
+    servo_config "$out/vm_servo.yaml" "$here/config/hyq_hal.yaml" \
         -e 's|^  clock: lockstep .*|  clock: lockstep\n  lockstep_timeout_s: 5\n  lockstep_short_timeout_s: 1\n  lockstep_bringup_timeout_s: 600|' \
-        -e 's|^  kind: two_stage$|  kind: pid|' \
-        "$here/config/hyq_servo_sim.yaml" > "$out/vm_servo.yaml"
+        -e 's|^  kind: two_stage$|  kind: pid|'
     relax_deadline "$out/vm_servo.yaml"
     cat > "$script" <<EOS
 #!/bin/sh

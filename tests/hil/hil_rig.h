@@ -19,7 +19,7 @@
 #include "hal/hal.h"
 #include "hal/loopback_bus.h"
 #include "tests/drivers/virtual_rig.h"
-#include "tools/sim/simulated_robot.h"
+#include "sim/simulated_robot.h"
 
 namespace hyq::testing {
 

@@ -102,7 +102,7 @@ while pos + 28 <= len(data):
     pos += 28 + clen + dlen
 
 lines = [l.rstrip("\n").split("\t") for l in open(table_path) if not l.startswith("#")]
-# issue 17: the held-input counts and their limit are fields of the HEALTH type lcm-spy decodes with
+# the held-input counts and their limit are fields of the HEALTH type lcm-spy decodes with
 fields = {l.split()[2]: l.split()[3] for l in open(table_path) if l.startswith("# field ")}
 for need, typ in (("held_inputs", "long[]"), ("max_held_in_row", "int[]"), ("max_held_cycles", "short")):
     if fields.get(need) != typ:

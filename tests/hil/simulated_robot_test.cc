@@ -1,5 +1,5 @@
 // The simulated HyQ driven by a HAL master over in-process loopback buses, in lock-step.
-#include "tools/sim/simulated_robot.h"
+#include "sim/simulated_robot.h"
 
 #include <gtest/gtest.h>
 
@@ -13,8 +13,9 @@
 #include "hal/calibration.h"
 #include "tests/hil/hil_rig.h"
 #include "tests/support/no_heap_guard.h"
-#include "tools/sim/fault_spec.h"
-#include "tools/sim/sync_phase_lock.h"
+#include "sim/fault_spec.h"
+#include "sim/realtime_runner.h"
+#include "sim/sync_phase_lock.h"
 
 namespace hyq::testing {
 namespace {
@@ -312,17 +313,18 @@ TEST(SimulatedRobot, RealTimeModeStepsAtTheCyclePeriodOnTheMonotonicClock) {
   LoopbackRig rig;
   std::atomic<bool> stop{false};
   const std::int64_t t0 = MonotonicNs();
-  const std::uint64_t steps = rig.robot->RunRealTime(stop, 0.2);
+  sim::RealtimeRunner runner(rig.robot.get());
+  const std::uint64_t steps = runner.Run(stop, 0.2);
   const double wall = 1e-9 * static_cast<double>(MonotonicNs() - t0);
   EXPECT_EQ(steps, 200u);
   // physics follows the wall clock: never ahead of it (a loaded test machine may make it late,
   // which the overrun counter shows; lateness is the benchmark's business, not this test's)
   EXPECT_GE(wall, 0.2 - 1e-3) << "physics ran ahead of the wall clock";
-  EXPECT_LT(wall, 0.2 + 0.01 * static_cast<double>(rig.robot->counters().realtime_overruns) + 0.5);
+  EXPECT_LT(wall, 0.2 + 0.01 * static_cast<double>(runner.counters().overruns) + 0.5);
   EXPECT_TRUE(rig.robot->holding()) << "no master: still on its stand";
 }
 
-// Issue 17: real time, the physics steps lock to the master's SYNC (tools/sim/sync_phase_lock.h)
+// real time: the physics steps lock to the master's SYNC (sim/sync_phase_lock.h)
 TEST(SyncPhaseLock, ErrorIsTheDeadlinesOffsetFromSyncPlusPhaseWrappedIntoHalfAPeriod) {
   const sim::SyncPhaseLock lock{.period_ns = 1'000'000, .phase_ns = 500'000};
   const std::int64_t sync = 7'000'123'456;
@@ -369,7 +371,7 @@ TEST(SyncPhaseLock, OneLateSyncMovesTheDeadlinesLittleAndNoMasterLeavesThemFree)
   EXPECT_EQ(off.Correction(due + 300'000, due - P, due), 0);
 }
 
-// Issue 19: by default the robot starts in its resting crouch (feet on the ground under their
+// by default the robot starts in its resting crouch (feet on the ground under their
 // standing places, base at 0.40 m), which the daemon stands up from
 TEST(SimulatedRobot, StartsRestingInACrouchWithTheFeetOnTheGround) {
   LoopbackRig rig(sim::SimulatedRobotConfig{});

@@ -1,8 +1,8 @@
-// Authenticated commands (issue 13, finding 3: any local process could enable the robot, and a
-// captured enable replayed 1.3 s later was applied): the key file's checks, the MAC against an
+// Authenticated commands (without them any local process could enable the robot, and a captured
+// enable replayed later would be applied): the key file's checks, the MAC against an
 // independent reference (Python's hmac module), and every refusal: unsigned, wrong key, altered,
-// stale, replayed, out of order, malformed envelopes. Also the LCM URL checks of finding 8.
-#include "servo/telemetry/command_auth.h"
+// stale, replayed, out of order, malformed envelopes. Also the LCM URL checks.
+#include "servo/command/command_auth.h"
 
 #include <sys/stat.h>
 #include <unistd.h>

@@ -1,5 +1,5 @@
-// The command channel's decoder on hostile datagrams (issue: one malformed lcmt_hyq_command made
-// the generated decoder throw std::length_error inside the LCM handler and killed the daemon):
+// The command channel's decoder on hostile datagrams (the generated decoder throws
+// std::length_error on a negative count, which inside the LCM handler would kill the daemon):
 // a negative foot count, a zero or oversized string length, truncations and random corruption are
 // refused with a reason, and nothing escapes.
 #include <gtest/gtest.h>
@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_channel.h"
 
 namespace hyq::servo {
 namespace {

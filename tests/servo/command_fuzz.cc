@@ -1,6 +1,6 @@
-// libFuzzer target for every LCM handler input the daemon has (issue 13, finding 1: one datagram
-// killed it): the command channel's authenticator (servo/telemetry/command_auth.h), the command
-// decoder behind it and the command rules (servo/telemetry/command_channel.h). Any bytes, as a
+// libFuzzer target for every LCM handler input the daemon has (one malformed datagram must never
+// kill it): the command channel's authenticator (servo/command/command_auth.h), the command
+// decoder behind it and the field checks (servo/command/command_channel.h). Any bytes, as a
 // datagram, are refused without a crash, an exception or UB; the same bytes wrapped with the
 // robot's key reach the decoder and the validator, which also never crash; no random datagram
 // passes as authentic.
@@ -11,8 +11,8 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "servo/telemetry/command_auth.h"
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_auth.h"
+#include "servo/command/command_channel.h"
 
 namespace {
 

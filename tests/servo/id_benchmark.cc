@@ -11,7 +11,7 @@
 
 #include "servo/control/controller.h"
 #include "tests/servo/id_fixture.h"
-#include "tools/sim/experiment.h"
+#include "tools/experiment/experiment.h"
 #include "tests/support/latency_stats.h"
 
 namespace hyq::servo {
@@ -27,13 +27,13 @@ std::array<bool, 4> Stance(int feet) {
 // once; the cycles with `feet` feet in stance (3: the double-support cycles with rh lifted).
 const std::vector<IdInput>& RecordedTrot(int feet) {
   static const std::vector<IdInput> all = [] {
-    sim::ExperimentConfig cfg;
+    experiment::ExperimentConfig cfg;
     cfg.reference = Reference::Kind::kTrot;
     cfg.duration_s = 3.0;
     cfg.mu = 0.1;
-    cfg.controller = sim::StandardController(ControllerKind::kTwoStageId);
+    cfg.controller = experiment::StandardController(ControllerKind::kTwoStageId);
     cfg.record_id_inputs = true;
-    return sim::RunExperiment(testing::HyqModel(), cfg).id_inputs;
+    return experiment::RunExperiment(testing::HyqModel(), cfg).id_inputs;
   }();
   static std::array<std::vector<IdInput>, 5> by_feet;
   if (by_feet[feet].empty()) {

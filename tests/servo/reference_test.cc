@@ -3,8 +3,10 @@
 // the trot's schedule, and the IK itself against the model; the same for the steered trot
 // (forward, sideways, turning, a command changed mid-ramp and mid-stride), its velocity ramps and
 // Raibert footholds.
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -50,6 +52,32 @@ void CheckDerivatives(Reference ref, double t_end, const char* name) {
   worst.Expect(name);
 }
 
+// forward kinematics of the full model at the sample's base pose (p_W, yaw about z) against the
+// sample's feet, and how far a stance foot moves from where it was planted; the worst of each
+struct StanceWorst {
+  std::array<Eigen::Vector3d, 4> planted{};
+  std::array<bool, 4> was_stance{};
+  std::unique_ptr<dynamics::CycleDynamics> dyn = std::make_unique<dynamics::CycleDynamics>();
+  double fk = 0, slide = 0;
+  void Add(const ReferenceSample& s) {
+    VectorQ q = VectorQ::Zero();
+    q.head<3>() = s.base.p_W;
+    q(3) = std::cos(0.5 * s.base.yaw);  // w x y z: a turn about z
+    q(6) = std::sin(0.5 * s.base.yaw);
+    q.tail<12>() = s.joints.q;
+    ASSERT_EQ(dynamics::ComputeCycleDynamics(HyqModel(), q, VectorV::Zero(), dyn.get()),
+              dynamics::DynamicsStatus::kOk);
+    for (int f = 0; f < 4; ++f) {
+      fk = std::max(fk, (dyn->feet.p_WF_W[f] - s.feet[f].p_W).norm());
+      if (s.joints.stance[f]) {
+        if (!was_stance[f]) planted[f] = s.feet[f].p_W;
+        slide = std::max(slide, (s.feet[f].p_W - planted[f]).norm());
+      }
+      was_stance[f] = s.joints.stance[f];
+    }
+  }
+};
+
 TEST(Reference, JointDerivativesAreConsistent) {
   CheckDerivatives(Reference::Stand(HyqModel()), 1.0, "stand");
   CheckDerivatives(Reference::Trot(HyqModel(), TrotParams{}), 4.0, "trot");
@@ -59,32 +87,20 @@ TEST(Reference, JointDerivativesAreConsistent) {
 TEST(Reference, StanceFeetStayPutAndMatchTheModel) {
   for (auto ref : {Reference::Trot(HyqModel(), TrotParams{}),
                    Reference::FigureEight(HyqModel(), FigureEightParams{})}) {
-    std::array<Eigen::Vector3d, 4> planted;
-    std::array<bool, 4> was_stance{};
     ReferenceSample s;
-    auto dyn = std::make_unique<dynamics::CycleDynamics>();
-    double worst_fk = 0, worst_slide = 0;
+    StanceWorst worst;
     for (int k = 0; k < 4000; ++k) {
       ref.Sample(k * 1e-3, &s);
       ASSERT_EQ(s.ik, dynamics::IkStatus::kOk) << k;
-      VectorQ q = VectorQ::Zero();
-      q.head<3>() = s.base.p_W;
-      q(3) = 1.0;
-      q.tail<12>() = s.joints.q;
-      ASSERT_EQ(dynamics::ComputeCycleDynamics(HyqModel(), q, VectorV::Zero(), dyn.get()),
-                dynamics::DynamicsStatus::kOk);
+      ASSERT_NO_FATAL_FAILURE(worst.Add(s)) << k;
       for (int f = 0; f < 4; ++f) {
-        worst_fk = std::max(worst_fk, (dyn->feet.p_WF_W[f] - s.feet[f].p_W).norm());
         if (s.joints.stance[f]) {
-          if (!was_stance[f]) planted[f] = s.feet[f].p_W;
-          worst_slide = std::max(worst_slide, (s.feet[f].p_W - planted[f]).norm());
           EXPECT_NEAR(s.feet[f].p_W.z(), HyqModel().feet[f].radius_m, 1e-12);
         }
-        was_stance[f] = s.joints.stance[f];
       }
     }
-    EXPECT_LT(worst_fk, 1e-9);     // the IK reproduces the feet through the full model
-    EXPECT_LT(worst_slide, 1e-12); // planted feet do not move
+    EXPECT_LT(worst.fk, 1e-9);     // the IK reproduces the feet through the full model
+    EXPECT_LT(worst.slide, 1e-12); // planted feet do not move
   }
 }
 
@@ -180,34 +196,16 @@ TEST(Reference, SteeredStanceFeetStayPutAndMatchTheModel) {
   for (const auto* plan : {&kForward, &kSideways, &kTurning, &kChangeMidStride}) {
     Reference ref = Reference::Trot(HyqModel(), TrotParams{});
     std::size_t next = 0;
-    std::array<Eigen::Vector3d, 4> planted;
-    planted.fill(Eigen::Vector3d::Zero());
-    std::array<bool, 4> was_stance{};
     ReferenceSample s;
-    auto dyn = std::make_unique<dynamics::CycleDynamics>();
-    double worst_fk = 0, worst_slide = 0;
+    StanceWorst worst;
     for (int k = 0; k < 5000; ++k) {
       AdvanceTo(&ref, k * 1e-3, *plan, &next);
       ref.Sample(k * 1e-3, &s);
       ASSERT_EQ(s.ik, dynamics::IkStatus::kOk) << k;
-      VectorQ q = VectorQ::Zero();
-      q.head<3>() = s.base.p_W;
-      q(3) = std::cos(0.5 * s.base.yaw);  // w x y z: a turn about z
-      q(6) = std::sin(0.5 * s.base.yaw);
-      q.tail<12>() = s.joints.q;
-      ASSERT_EQ(dynamics::ComputeCycleDynamics(HyqModel(), q, VectorV::Zero(), dyn.get()),
-                dynamics::DynamicsStatus::kOk);
-      for (int f = 0; f < 4; ++f) {
-        worst_fk = std::max(worst_fk, (dyn->feet.p_WF_W[f] - s.feet[f].p_W).norm());
-        if (s.joints.stance[f]) {
-          if (!was_stance[f]) planted[f] = s.feet[f].p_W;
-          worst_slide = std::max(worst_slide, (s.feet[f].p_W - planted[f]).norm());
-        }
-        was_stance[f] = s.joints.stance[f];
-      }
+      ASSERT_NO_FATAL_FAILURE(worst.Add(s)) << k;
     }
-    EXPECT_LT(worst_fk, 1e-9);
-    EXPECT_EQ(worst_slide, 0.0);  // a chosen foothold is never moved, even by a new command
+    EXPECT_LT(worst.fk, 1e-9);
+    EXPECT_EQ(worst.slide, 0.0);  // a chosen foothold is never moved, even by a new command
   }
 }
 

@@ -103,11 +103,11 @@ TEST(SafetyStateMachine, HeldDampingOutlastsItsTimerUntilReleased) {
   ASSERT_EQ(s.mode(), ServoMode::kDamping);
   std::uint64_t cycle = 0;
   for (int i = 0; i < 50; ++i) {
-    s.HoldDamping(true);
+    s.Decide(false, /*hold_damping=*/true);
     s.BeginCycle(++cycle, 0);
   }
   EXPECT_EQ(s.mode(), ServoMode::kDamping);  // 50 cycles, the timer says 2
-  s.HoldDamping(false);
+  s.Decide(false, /*hold_damping=*/false);
   s.BeginCycle(++cycle, 0);
   EXPECT_EQ(s.mode(), ServoMode::kStopped);
 }

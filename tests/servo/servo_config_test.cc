@@ -13,7 +13,7 @@
 
 #include "config/servo_config_loader.h"
 #include "hal/config_error.h"
-#include "servo/telemetry/command_channel.h"
+#include "servo/command/command_channel.h"
 
 namespace hyq {
 namespace {
@@ -113,8 +113,8 @@ TEST(ServoConfigYaml, EveryDeadlineKeyReachesDeadlineConfig) {
   EXPECT_FALSE(config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").deadline.stop_in_lockstep);
 }
 
-// the real-time read's wait for answers still owed, in periods (at most half of one), so that it
-// scales with the rate
+// the real-time read's wait for answers still owed, in periods (at most half of one),
+// so that it scales with the rate
 TEST(ServoConfigYaml, AnswerWaitIsAFractionOfThePeriod) {
   EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0.25\n").answer_wait_s(), 250e-6);
   EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 800\n  answer_wait_periods: 0.25\n").answer_wait_s(), 312.5e-6);
@@ -199,8 +199,7 @@ telemetry:
   EXPECT_DOUBLE_EQ(robot_cc.swing_gain_scale, 1.0);
   EXPECT_DOUBLE_EQ(robot_cc.pid_swing_gain_scale, 1.0);
   EXPECT_DOUBLE_EQ(robot_cc.pdg_swing_gain_scale, 1.0);
-  // the simulation's: the IDs' swing legs at 0.3 (they ring behind the actuator's lag), the
-  // baselines' untouched
+  // the simulation's: the IDs' swing legs at 0.3, the baselines' untouched
   const servo::ControllerConfig sim_cc = config::LoadServoConfig(kConfigDir / "hyq_servo_sim.yaml").controller;
   EXPECT_DOUBLE_EQ(sim_cc.swing_gain_scale, 0.3);
   EXPECT_DOUBLE_EQ(sim_cc.pid_swing_gain_scale, 1.0);

@@ -64,7 +64,7 @@ TEST(ServoLoop, ControllerTorquesReachTheBoards) {
   // standing still: the two-stage ID holds the robot up, so the knees and hips carry torque
   double sum = 0.0;
   for (int j = 0; j < 12; ++j) {
-    const double sent = rig.sink.last.tau_command_Nm[static_cast<std::size_t>(j)];
+    const double sent = rig.sink.last.joint_torque.tau_command_Nm[j];
     // the board applies what the loop commanded one cycle earlier, to the mN·m
     EXPECT_TRUE(std::isfinite(sent));
     sum += std::abs(rig.emu->torque_setpoint_Nm(j));
@@ -73,11 +73,35 @@ TEST(ServoLoop, ControllerTorquesReachTheBoards) {
   for (int leg = 0; leg < 4; ++leg)
     EXPECT_GT(std::abs(rig.emu->torque_setpoint_Nm(3 * leg + 2)), 5.0) << "knee of leg " << leg;
   // the last command the boards applied equals the loop's command of the previous cycle
-  const auto before = rig.sink.last.tau_command_Nm;
+  const hyq_lcm::lcmt_hyq_joint_torque before = rig.sink.last.joint_torque;
   rig.Step();
   for (int j = 0; j < 12; ++j)
-    EXPECT_NEAR(rig.emu->torque_setpoint_Nm(j), before[static_cast<std::size_t>(j)], 1e-3) << j;
+    EXPECT_NEAR(rig.emu->torque_setpoint_Nm(j), before.tau_command_Nm[j], 1e-3) << j;
   EXPECT_GT(rig.sink.snapshots, 50u);
+}
+
+// The health message carries the HAL's counters of every bus and the state of every device.
+TEST(ServoLoop, HealthCarriesTheHalCounters) {
+  ServoRig rig(ActiveConfig());
+  rig.BringUpAndStart();
+  rig.Steps(20);
+  const hyq_lcm::lcmt_hyq_health& h = rig.sink.last.health;
+  ASSERT_EQ(h.num_buses, static_cast<int>(rig.hal->num_buses()));
+  int devices = 0;
+  for (std::size_t b = 0; b < rig.hal->num_buses(); ++b) {
+    const auto& c = rig.hal->bus(b).counters();
+    const hyq_lcm::lcmt_hyq_bus_health& bh = h.buses[b];
+    EXPECT_GT(bh.rx_frames, 0) << b;
+    EXPECT_EQ(bh.rx_frames, static_cast<std::int64_t>(c.rx_frames)) << b;
+    EXPECT_EQ(bh.tx_frames, static_cast<std::int64_t>(c.tx_frames)) << b;
+    EXPECT_EQ(bh.missing, static_cast<std::int64_t>(c.missing)) << b;
+    EXPECT_EQ(bh.driver_dropped, static_cast<std::int64_t>(c.driver_dropped)) << b;
+    EXPECT_EQ(bh.wkc_expected, static_cast<std::int32_t>(rig.hal->bus(b).wkc().expected)) << b;
+    for (const auto& d : rig.hal->bus(b).devices())
+      EXPECT_EQ(h.device_state[devices++], static_cast<std::int8_t>(d.state));
+  }
+  EXPECT_EQ(h.num_devices, devices);
+  EXPECT_EQ(h.mode, static_cast<std::int8_t>(ServoMode::kActive));
 }
 
 // Injects a fault into an ACTIVE loop; returns how many cycles after the fault's inputs first
@@ -104,7 +128,7 @@ TEST_P(ServoFault, ReachesTheSafeStateWithinTwoCycles) {
   cfg.deadline.max_consecutive_misses = fc.reason == EventReason::kDeadlineMiss ? 1 : 1000;
   // In the deadline case a cycle preempted by a busy machine before the injection is a real miss
   // and, rightly, a fault: then the precondition (ACTIVE, nothing missed) is made again on a fresh
-  // rig instead of failing the test (issue 14: tests must not need an idle machine).
+  // rig instead of failing the test (tests must not need an idle machine).
   std::unique_ptr<ServoRig> owned;
   for (int attempt = 1; attempt <= 20; ++attempt) {
     owned = std::make_unique<ServoRig>(cfg);
@@ -259,7 +283,7 @@ TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
   rig.sink.commands.push_back({.kind = ServoCommand::Kind::kSetController,
                                .controller = ControllerKind::kPid});
   rig.Steps(2);
-  EXPECT_DOUBLE_EQ(rig.sink.last.mu[2], 0.3);
+  EXPECT_DOUBLE_EQ(rig.sink.last.contact.mu[2], 0.3);
   EXPECT_EQ(rig.loop->controller().kind(), ControllerKind::kPid);
   rig.sink.commands.push_back({.kind = ServoCommand::Kind::kEnable});
   rig.Steps(2);
@@ -279,7 +303,7 @@ TEST(ServoLoop, CommandsChangeSettingsAndRefuseUnsafeOnes) {
   for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->torque_setpoint_Nm(j), 0.0);
 }
 
-// set velocity (issue 19): taken in any mode by a trot (an event says what it set), refused with
+// set velocity: taken in any mode by a trot (an event says what it set), refused with
 // an event naming the reference otherwise
 TEST(ServoLoop, SetVelocitySteersTheTrotOnly) {
   const auto detail_of = [](const ServoRig& rig, EventReason reason) {
@@ -330,7 +354,7 @@ TEST(ServoLoop, ControlledStopEndsWithDevicesInPreOp) {
   for (int j = 0; j < 12; ++j) EXPECT_EQ(rig.emu->nmt_state(j), hal::NmtState::kPreOperational) << j;
 }
 
-// Issue 19: enable stands the robot up first (the reference waits), a controlled stop sits it
+// Enable stands the robot up first (the reference waits), a controlled stop sits it
 // down to the crouch first (then damping, then PRE-OP), a disable likewise (then STANDBY)
 TEST(ServoLoop, StandsUpAfterEnableAndSitsDownBeforeTheStop) {
   ServoConfig cfg = testing::DefaultServoConfig();
@@ -345,9 +369,9 @@ TEST(ServoLoop, StandsUpAfterEnableAndSitsDownBeforeTheStop) {
   ASSERT_EQ(rig.loop->mode(), ServoMode::kActive);
   // standing up: the reference's clock has not started
   rig.Steps(300);
-  EXPECT_DOUBLE_EQ(rig.sink.last.reference_time_s, 0.0);
+  EXPECT_DOUBLE_EQ(rig.sink.last.joint_state.reference_time_s, 0.0);
   rig.Steps(400);
-  EXPECT_GT(rig.sink.last.reference_time_s, 0.1);
+  EXPECT_GT(rig.sink.last.joint_state.reference_time_s, 0.1);
   rig.sink.events.clear();
   rig.loop->RequestStop();
   int n = 0;
@@ -387,12 +411,12 @@ TEST(ServoLoop, FullCyclesDoNotTouchTheHeap) {
     ServoConfig cfg = ActiveConfig();
     cfg.controller.kind = kind;
     cfg.controller.pd_gravity = {cfg.controller.pid.kp, cfg.controller.pid.kd};
-    cfg.controller.feedback.ki_tau.setConstant(100.0);  // the ID kinds' integral (issue 15)
+    cfg.controller.feedback.ki_tau.setConstant(100.0);  // the ID kinds' integral
     cfg.controller.feedback.i_limit_tau.setConstant(20.0);
-    cfg.disturbance.enabled = true;  // and the trunk's disturbance observer (issue 15)
+    cfg.disturbance.enabled = true;  // and the trunk's disturbance observer
     cfg.reference = Reference::Kind::kTrot;
-    cfg.friction.enabled = true;  // the friction estimator in the cycle too (issue 18)
-    cfg.stand_up_s = 0.3;         // and the stand-up and sit-down (issue 19)
+    cfg.friction.enabled = true;  // the friction estimator in the cycle too
+    cfg.stand_up_s = 0.3;         // and the stand-up and sit-down
     cfg.sit_down_s = 0.3;
     ServoRig rig(cfg);
     rig.BringUpAndStart();

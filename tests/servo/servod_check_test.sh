@@ -59,7 +59,7 @@ expect_hal_error() {
   done
   echo "ok   $name (exit $rc): $out"
 }
-# issue 13 finding 8: these passed --check
+# configurations --check must refuse, each naming the key and what it expected
 expect_error regex_channel 's|^  channel: HYQ_COMMAND|  channel: "HYQ_.*"|' "commands.channel" "regular expression"
 expect_error lcm_url_bad_group 's|^  lcm_url: .*|  lcm_url: "udpm://[[[::"|' "telemetry.lcm_url (group)" "multicast address"
 expect_hal_error udp_bad_port 's|^    interface: can0|    interface: udp::99999|' "hyq_hal.yaml" "bus 'lf'" "1..65535" "99999"

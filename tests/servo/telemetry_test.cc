@@ -29,7 +29,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
@@ -65,33 +65,36 @@ TelemetrySnapshot MakeSnapshot(std::uint64_t cycle) {
   const double c = static_cast<double>(cycle);
   s.cycle = cycle;
   s.time_ns = 1'000'000'000 + static_cast<std::int64_t>(cycle) * 1'000'000;
-  s.reference_time_s = c * 1e-3;
-  s.mode = ServoMode::kActive;
-  s.controller = ControllerKind::kTwoStageId;
+  s.joint_state.reference_time_s = c * 1e-3;
+  s.joint_state.mode = s.joint_torque.mode = s.health.mode = static_cast<std::int8_t>(ServoMode::kActive);
+  s.joint_torque.controller = s.contact.controller =
+      static_cast<std::int8_t>(ControllerKind::kTwoStageId);
   for (int j = 0; j < kNumJoints; ++j) {
-    s.q_rad[j] = 0.01 * j + 1e-4 * c;
-    s.qd_rad_s[j] = -0.5 * j + c;
-    s.tau_measured_Nm[j] = 10.0 * j - c;
-    s.q_ref_rad[j] = 0.01 * j + 2e-4 * c;
-    s.qd_ref_rad_s[j] = 0.25 * j;
-    s.tau_command_Nm[j] = 3.0 * j + 0.5 * c;
-    s.input_status[j] = static_cast<std::uint8_t>((cycle + j) % 5);
+    s.joint_state.q_rad[j] = 0.01 * j + 1e-4 * c;
+    s.joint_state.qd_rad_s[j] = -0.5 * j + c;
+    s.joint_state.tau_measured_Nm[j] = 10.0 * j - c;
+    s.joint_state.q_ref_rad[j] = 0.01 * j + 2e-4 * c;
+    s.joint_state.qd_ref_rad_s[j] = 0.25 * j;
+    s.joint_torque.tau_command_Nm[j] = 3.0 * j + 0.5 * c;
+    s.joint_state.input_status[j] = static_cast<std::int8_t>((cycle + j) % 5);
   }
   for (int f = 0; f < kNumFeet; ++f) {
-    s.stance_reference[f] = (cycle + f) % 2;
-    s.stance_estimated[f] = 1;
-    s.mu[f] = 0.1 * (f + 1);
-    s.contact_force_N[f] = {c, -c, 200.0 + f};
+    s.contact.stance_reference[f] = static_cast<std::int8_t>((cycle + f) % 2);
+    s.contact.stance_estimated[f] = 1;
+    s.contact.mu[f] = 0.1 * (f + 1);
+    s.contact.contact_force_N[f][0] = c;
+    s.contact.contact_force_N[f][1] = -c;
+    s.contact.contact_force_N[f][2] = 200.0 + f;
   }
-  s.stage1_iterations = static_cast<std::int32_t>(cycle % 7);
-  s.stage2_solve_us = 12.5 + c;
+  s.contact.stage1_iterations = static_cast<std::int32_t>(cycle % 7);
+  s.contact.stage2_solve_us = 12.5 + c;
   s.timing.total_ns = 100'000 + static_cast<std::int64_t>(cycle) * 10;
   s.timing.wakeup_latency_ns = 5'000 + static_cast<std::int64_t>(cycle % 13) * 100;
-  s.deadline_misses = cycle / 50;
-  s.num_buses = 4;
-  s.buses[2].rx_frames = cycle * 13;
-  s.num_devices = 13;
-  s.device_state[12] = 3;
+  s.timing.deadline_misses = static_cast<std::int64_t>(cycle / 50);
+  s.health.num_buses = 4;
+  s.health.buses[2].rx_frames = static_cast<std::int64_t>(cycle * 13);
+  s.health.num_devices = 13;
+  s.health.device_state[12] = 3;
   return s;
 }
 
@@ -196,7 +199,7 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
   lcm::LogFile log(log_path, "r");
   ASSERT_TRUE(log.good());
   // UDP multicast is best effort, and lcm-logger's receive ring drops datagrams on a busy machine
-  // (issue 14: 174-276 of 300 under two CPU hogs). What the transport promises, and what is
+  // (a third of them under two CPU hogs). What the transport promises, and what is
   // tested: every message that arrives decodes and equals what was pushed for its cycle, each
   // channel's messages arrive in order without duplicates, and the losses are counted (here,
   // printed); not that all of them arrive.
@@ -219,39 +222,40 @@ TEST(TelemetryLcmLogger, RecordedLogMatchesPushedSnapshots) {
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
       ASSERT_EQ(m.utime, s.time_ns / 1000);
       EXPECT_EQ(m.mode, static_cast<int>(ServoMode::kActive));
-      EXPECT_DOUBLE_EQ(m.reference_time_s, s.reference_time_s);
+      EXPECT_DOUBLE_EQ(m.reference_time_s, s.joint_state.reference_time_s);
       for (int j = 0; j < kNumJoints; ++j) {
-        ASSERT_EQ(m.q_rad[j], s.q_rad[j]);
-        ASSERT_EQ(m.qd_rad_s[j], s.qd_rad_s[j]);
-        ASSERT_EQ(m.tau_measured_Nm[j], s.tau_measured_Nm[j]);
-        ASSERT_EQ(m.q_ref_rad[j], s.q_ref_rad[j]);
-        ASSERT_EQ(m.qd_ref_rad_s[j], s.qd_ref_rad_s[j]);
-        ASSERT_EQ(m.input_status[j], s.input_status[j]);
+        ASSERT_EQ(m.q_rad[j], s.joint_state.q_rad[j]);
+        ASSERT_EQ(m.qd_rad_s[j], s.joint_state.qd_rad_s[j]);
+        ASSERT_EQ(m.tau_measured_Nm[j], s.joint_state.tau_measured_Nm[j]);
+        ASSERT_EQ(m.q_ref_rad[j], s.joint_state.q_ref_rad[j]);
+        ASSERT_EQ(m.qd_ref_rad_s[j], s.joint_state.qd_ref_rad_s[j]);
+        ASSERT_EQ(m.input_status[j], s.joint_state.input_status[j]);
       }
     } else if (ev->channel == "HYQ_JOINT_TORQUE") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_joint_torque>(ev->data, static_cast<std::size_t>(ev->datalen));
       EXPECT_TRUE(in_order(ev->channel, m.cycle)) << m.cycle;
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
-      for (int j = 0; j < kNumJoints; ++j) ASSERT_EQ(m.tau_command_Nm[j], s.tau_command_Nm[j]);
+      for (int j = 0; j < kNumJoints; ++j) ASSERT_EQ(m.tau_command_Nm[j], s.joint_torque.tau_command_Nm[j]);
       EXPECT_EQ(m.controller, 3);
     } else if (ev->channel == "HYQ_CONTACT") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_contact_state>(ev->data, static_cast<std::size_t>(ev->datalen));
       EXPECT_TRUE(in_order(ev->channel, m.cycle)) << m.cycle;
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
       for (int f = 0; f < kNumFeet; ++f) {
-        ASSERT_EQ(m.stance_reference[f] != 0, s.stance_reference[f] != 0);
-        ASSERT_EQ(m.mu[f], s.mu[f]);
-        for (int k = 0; k < 3; ++k) ASSERT_EQ(m.contact_force_N[f][k], s.contact_force_N[f][k]);
+        ASSERT_EQ(m.stance_reference[f] != 0, s.contact.stance_reference[f] != 0);
+        ASSERT_EQ(m.mu[f], s.contact.mu[f]);
+        for (int k = 0; k < 3; ++k)
+          ASSERT_EQ(m.contact_force_N[f][k], s.contact.contact_force_N[f][k]);
       }
-      EXPECT_EQ(m.stage1_iterations, s.stage1_iterations);
-      EXPECT_EQ(m.stage2_solve_us, s.stage2_solve_us);
+      EXPECT_EQ(m.stage1_iterations, s.contact.stage1_iterations);
+      EXPECT_EQ(m.stage2_solve_us, s.contact.stage2_solve_us);
     } else if (ev->channel == "HYQ_TIMING") {
       const auto m = Decode<hyq_lcm::lcmt_hyq_servo_timing>(ev->data, static_cast<std::size_t>(ev->datalen));
       EXPECT_TRUE(in_order(ev->channel, m.cycle)) << m.cycle;
       const TelemetrySnapshot s = MakeSnapshot(static_cast<std::uint64_t>(m.cycle));
       EXPECT_EQ(m.total_ns, s.timing.total_ns);
       EXPECT_EQ(m.wakeup_latency_ns, s.timing.wakeup_latency_ns);
-      EXPECT_EQ(m.deadline_misses, static_cast<std::int64_t>(s.deadline_misses));
+      EXPECT_EQ(m.deadline_misses, s.timing.deadline_misses);
     } else if (ev->channel == "HYQ_HEALTH") {
       last_health = Decode<hyq_lcm::lcmt_hyq_health>(ev->data, static_cast<std::size_t>(ev->datalen));
       ++health_seen;

@@ -142,13 +142,37 @@ IdInput Projected(IdInput in) {
   return in;
 }
 
+// The same problem solved by an ID with settings `sa` into *a and one with `sb` into *b (each
+// asserted to solve).
+void SolveWithBoth(const TwoStageSettings& sa, const TwoStageSettings& sb, const CycleDynamics& d,
+                   const IdInput& in, IdOutput* a, IdOutput* b) {
+  TwoStageId id_a(sa), id_b(sb);
+  ASSERT_EQ(id_a.Solve(HyqModel(), d, in, a), IdStatus::kOk) << Describe(*a);
+  ASSERT_EQ(id_b.Solve(HyqModel(), d, in, b), IdStatus::kOk) << Describe(*b);
+}
+
+// Stage I alone.
+TwoStageSettings StageOneOnly() {
+  TwoStageSettings s;
+  s.stage2 = false;
+  return s;
+}
+
+// Stage I, or Stage II, given no iterations: it cannot finish, and the ID falls back.
+TwoStageSettings StageOneCannotFinish() {
+  TwoStageSettings s;
+  s.max_iterations = 0;
+  return s;
+}
+TwoStageSettings StageTwoCannotFinish() {
+  TwoStageSettings s;
+  s.stage2_max_iterations = 0;
+  return s;
+}
+
 // Stage I alone and both stages with (9) on the same problem (each asserted to solve).
 void SolveBothStages(const CycleDynamics& d, const IdInput& in, IdOutput* o1, IdOutput* o2) {
-  TwoStageSettings s1;
-  s1.stage2 = false;
-  TwoStageId stage1(s1), both(WithEq9());
-  ASSERT_EQ(stage1.Solve(HyqModel(), d, in, o1), IdStatus::kOk) << Describe(*o1);
-  ASSERT_EQ(both.Solve(HyqModel(), d, in, o2), IdStatus::kOk) << Describe(*o2);
+  SolveWithBoth(StageOneOnly(), WithEq9(), d, in, o1, o2);
 }
 
 // Fig. 1: contact conditions 2 → 4 → 2 → 4 → 2 feet while the body sways with all feet kept
@@ -323,10 +347,8 @@ TEST_F(TwoStage, VelocityConsistentQddLeavesStickingFeetAtRest) {
     }
     TwoStageSettings off;
     off.velocity_consistent_qdd = false;
-    TwoStageId with, without(off);
     IdOutput o_on, o_off;
-    ASSERT_EQ(with.Solve(HyqModel(), *d, in, &o_on), IdStatus::kOk) << Describe(o_on);
-    ASSERT_EQ(without.Solve(HyqModel(), *d, in, &o_off), IdStatus::kOk) << Describe(o_off);
+    ASSERT_NO_FATAL_FAILURE(SolveWithBoth({}, off, *d, in, &o_on, &o_off)) << "trial " << trial;
     // the ID's joint rows follow the projected q̈ (5)
     EXPECT_TRUE(NearRel(VectorJ(o_on.v_star.tail<12>()), VectorJ(in.v.tail<12>() + in.dt * once),
                         1e-8)) << "trial " << trial;
@@ -375,12 +397,8 @@ TEST_F(TwoStage, StageTwoKeepsEnergyAndNeverRaisesTorque) {
   for (int trial = 0; trial < 40; ++trial) {
     const IdInput in = Consistent(trial % 2 ? kAll : kLfRh);
     const auto d = Dyn(in);
-    TwoStageSettings s1;
-    s1.stage2 = false;
-    TwoStageId stage1(s1), both;
     IdOutput o1, o2;
-    ASSERT_EQ(stage1.Solve(HyqModel(), *d, in, &o1), IdStatus::kOk) << Describe(o1);
-    ASSERT_EQ(both.Solve(HyqModel(), *d, in, &o2), IdStatus::kOk) << Describe(o2);
+    ASSERT_NO_FATAL_FAILURE(SolveBothStages(*d, in, &o1, &o2)) << "trial " << trial;
     // (9): the kinetic energy after the step, from (6) with Stage II's τ and impulses
     const VectorV v2 = VStarFromMomentum(*d, in, o2);
     const double ke2 = 0.5 * v2.dot(d->M * v2);
@@ -580,10 +598,8 @@ TEST_F(TwoStage, MeasuredContactVelocityIsTreatedAsAnImpact) {
   const auto d = Dyn(in);
   TwoStageSettings off;
   off.project_contact_velocity = false;
-  TwoStageId projected, raw(off);
-  IdOutput a, b;
-  ASSERT_EQ(projected.Solve(HyqModel(), *d, in, &a), IdStatus::kOk) << Describe(a);
-  ASSERT_EQ(raw.Solve(HyqModel(), *d, in, &b), IdStatus::kOk) << Describe(b);
+  IdOutput a, b;  // projected, raw
+  ASSERT_NO_FATAL_FAILURE(SolveWithBoth({}, off, *d, in, &a, &b));
   double na = 0, nb = 0;
   for (int f = 0; f < 4; ++f) {
     na += a.impulses[f].normal_Ns;
@@ -615,12 +631,12 @@ TEST_F(TwoStage, ZeroStanceIsContactFreeId) {
   EXPECT_TRUE(NearRel(VectorJ(lhs.tail<12>()), out.tau_Nm, 1e-9));
 }
 
-// Hard random ID problems (issue 16): 1–4 stance feet, μ from 0 (frictionless) to 10, feet on
+// Hard random ID problems: 1–4 stance feet, μ from 0 (frictionless) to 10, feet on
 // slopes (normals tilted up to 30°), h from 0.5 to 4 ms, base twists up to 0.5 m/s and 1 rad/s,
 // base accelerations up to 5 m/s² and 5 rad/s², references consistent at the velocity or the
 // acceleration level plus up to ±10 rad/s² of feedback on every joint. Each is solved cold and,
 // in runs of 20 with the same stance and small changes, warm. Every answer is finite; a
-// fallback would be counted and its torque within the effort limits; issue 16 asks for none, and
+// fallback would be counted and its torque within the effort limits; the servo needs none, and
 // none there are (docs/inverse_dynamics.md, "Fallbacks").
 TEST_F(TwoStage, HardRandomProblemsSolveWithoutFallback) {
   // HYQ_ID_GENERATOR_SEED: another draw of the same generator (the test asserts on the default)
@@ -696,13 +712,8 @@ TEST_F(TwoStage, FallbackChainIsCountedNeverThrown) {
   const IdInput in = Consistent(kAll);
   const auto d = Dyn(in);
   {  // Stage II cannot finish → Stage I's torque
-    TwoStageSettings s;
-    s.stage2_max_iterations = 0;
-    TwoStageId id(s), ref;
+    TwoStageId id(StageTwoCannotFinish()), stage1(StageOneOnly());
     IdOutput out, out1;
-    TwoStageSettings s1;
-    s1.stage2 = false;
-    TwoStageId stage1(s1);
     EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
     EXPECT_EQ(out.fallback, Fallback::kStage1Torque);
     EXPECT_EQ(id.counters().stage2_failed, 1u);
@@ -710,9 +721,7 @@ TEST_F(TwoStage, FallbackChainIsCountedNeverThrown) {
     EXPECT_TRUE(NearRel(out.tau_Nm, out1.tau_Nm, 1e-12));
   }
   {  // Stage I cannot finish → contact-free ID
-    TwoStageSettings s;
-    s.max_iterations = 0;
-    TwoStageId id(s);
+    TwoStageId id(StageOneCannotFinish());
     IdOutput out;
     EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
     EXPECT_EQ(out.fallback, Fallback::kContactFreeId);
@@ -749,9 +758,7 @@ TEST_F(TwoStage, FallbackTorqueIsClampedToTheEffortLimits) {
   const auto clamp = [&](const VectorJ& tau) { return VectorJ(tau.cwiseMax(-limit).cwiseMin(limit)); };
   const auto ratio = [&](const VectorJ& tau) { return tau.cwiseAbs().cwiseQuotient(limit).maxCoeff(); };
   {  // Stage I cannot finish → contact-free ID, clamped
-    TwoStageSettings s;
-    s.max_iterations = 0;
-    TwoStageId id(s);
+    TwoStageId id(StageOneCannotFinish());
     IdOutput out;
     EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
     EXPECT_EQ(out.fallback, Fallback::kContactFreeId);
@@ -764,10 +771,7 @@ TEST_F(TwoStage, FallbackTorqueIsClampedToTheEffortLimits) {
     std::printf("contact-free fallback: %.1f x the effort limit before the clamp\n", ratio(f_id));
   }
   {  // Stage II cannot finish → Stage I's torque, clamped
-    TwoStageSettings s, s1;
-    s.stage2_max_iterations = 0;
-    s1.stage2 = false;
-    TwoStageId id(s), stage1(s1);
+    TwoStageId id(StageTwoCannotFinish()), stage1(StageOneOnly());
     IdOutput out, out1;
     EXPECT_EQ(id.Solve(HyqModel(), *d, in, &out), IdStatus::kFallback);
     EXPECT_EQ(out.fallback, Fallback::kStage1Torque);
@@ -784,10 +788,7 @@ TEST_F(TwoStage, FallbackTorqueIsClampedToTheEffortLimits) {
   {  // a fallback within the limits is left as it is and not counted as clamped
     const IdInput ok = Consistent(kAll);
     const auto dok = Dyn(ok);
-    TwoStageSettings s, s1;
-    s.stage2_max_iterations = 0;
-    s1.stage2 = false;
-    TwoStageId id(s), stage1(s1);
+    TwoStageId id(StageTwoCannotFinish()), stage1(StageOneOnly());
     IdOutput out, out1;
     EXPECT_EQ(id.Solve(HyqModel(), *dok, ok, &out), IdStatus::kFallback);
     ASSERT_EQ(stage1.Solve(HyqModel(), *dok, ok, &out1), IdStatus::kOk) << Describe(out1);
@@ -883,7 +884,7 @@ TEST(Pid, AntiWindupAndLimits) {
   EXPECT_DOUBLE_EQ(pid.integral()(0), 0.0);  // saturated along e: no integration
 }
 
-// the ID kinds' integral torque (issue 15): Ki_τ e dt per cycle, clamped at ±i_limit_τ, added
+// the ID kinds' integral torque: Ki_τ e dt per cycle, clamped at ±i_limit_τ, added
 // on top of ID + PD; cleared by Reset and by a change of controller
 TEST_F(TwoStage, IdIntegralGrowsToItsLimitAndResets) {
   ControllerConfig cfg;

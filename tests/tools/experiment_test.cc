@@ -8,9 +8,9 @@
 #include "dynamics/cycle_dynamics.h"
 #include "servo/control/two_stage_id.h"
 #include "tests/dynamics/hyq_fixture.h"
-#include "tools/sim/experiment.h"
+#include "tools/experiment/experiment.h"
 
-namespace hyq::sim {
+namespace hyq::experiment {
 namespace {
 
 using servo::ControllerKind;
@@ -45,7 +45,7 @@ TEST(ClosedLoop, TwoStageIdStandsAndTrotsWithoutFalling) {
   EXPECT_EQ(trot.fallbacks.stage1_failed, 0u);
 }
 
-// Issue 16, "never fail": 60 s of closed-loop trot on μ = 0.1 with the two-stage ID, then its
+// "never fall back": 60 s of closed-loop trot on μ = 0.1 with the two-stage ID, then its
 // 60 000 recorded ID problems solved again by a warm-started TwoStageId (as the loop does) and
 // by a cold one (reset before every problem): no QP reaches its budget, so nothing falls back.
 TEST(ClosedLoop, SixtySecondsOfTrotAndItsRecordedProblemsNeverFallBack) {
@@ -94,7 +94,7 @@ TEST(ClosedLoop, OnIceTheTwoStageIdSlipsLessThanTheNoSlipId) {
   EXPECT_LT(two.mean_error_rad, noslip.mean_error_rad);
 }
 
-// Issue 18: a trot from μ = 1 across an icy patch (μ = 0.1) and off it. With μ = 1 assumed the
+// a trot from μ = 1 across an icy patch (μ = 0.1) and off it. With μ = 1 assumed the
 // feet slide on the ice (measured 0.59-0.73 m/s on the patch, error 0.22-0.25 rad); with μ
 // estimated online the robot walks across like with the true μ given (error within 20 % of the
 // oracle's, measured +7 to +21 % per seed), and the estimate follows the ground.
@@ -104,7 +104,7 @@ TEST(ClosedLoop, EstimatedFrictionCrossesTheIcyPatchLikeTheOracle) {
     c.reference = servo::Reference::Kind::kTrot;
     c.duration_s = 10.0;
     c.mu = 1.0;
-    c.patches = {ParseGroundPatch("0.6,1.2,-2,2,0.1", "patch")};
+    c.patches = {sim::ParseGroundPatch("0.6,1.2,-2,2,0.1", "patch")};
     c.mu_source = source;
     c.controller = StandardController(ControllerKind::kTwoStageId);
     c.initial_perturbation_rad = 0.02;
@@ -147,7 +147,7 @@ TEST(ClosedLoop, EstimatedFrictionCrossesTheIcyPatchLikeTheOracle) {
     for (int f = 0; f < 4; ++f) ASSERT_LE(smp.mu_control[static_cast<std::size_t>(f)], 1.0);
 }
 
-// Issue 15: on the `realistic` plant (model error, hydraulics, friction, delay, load-cell bias)
+// on the `realistic` plant (model error, hydraulics, friction, delay, load-cell bias)
 // the two-stage ID still trots on μ = 0.1 without falling, tracking worse than on the model
 // (docs/simulation.md has the numbers; measured 6 s: 0.22 rad vs 0.027 rad).
 TEST(ClosedLoop, RealisticPlantTrotsWithoutFalling) {
@@ -156,7 +156,7 @@ TEST(ClosedLoop, RealisticPlantTrotsWithoutFalling) {
   c.duration_s = 3.0;
   c.mu = 0.1;
   c.controller = StandardController(ControllerKind::kTwoStageId);
-  c.profile = PlantProfile::Realistic();
+  c.profile = sim::PlantProfile::Realistic();
   const hal::HalConfig hal = config::LoadHalConfig(testing::SourceDir() / "config/hyq_hal.yaml");
   c.joints.assign(hal.joints.begin(), hal.joints.end());
   const ExperimentResult r = RunExperiment(HyqModel(), c);
@@ -173,7 +173,7 @@ TEST(ClosedLoop, RealisticPlantTrotsWithoutFalling) {
   EXPECT_THROW(RunExperiment(HyqModel(), c), std::invalid_argument);
 }
 
-// Issue 15: the trunk's disturbance observer finds a known payload (5 kg at (0.10, 0.05, 0.08) m
+// the trunk's disturbance observer finds a known payload (5 kg at (0.10, 0.05, 0.08) m
 // in the trunk frame, on a plant otherwise the model) while the two-stage ID holds the robot
 // standing: within 0.5 s the force is the payload's weight within 10 %, and after 1 s the moment
 // about the base origin is the payload's within 15 % of m g times its lever. With the estimate in
@@ -235,4 +235,4 @@ TEST(ClosedLoop, SameSeedSameRun) {
 }
 
 }  // namespace
-}  // namespace hyq::sim
+}  // namespace hyq::experiment

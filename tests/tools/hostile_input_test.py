@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Hostile inputs to hyq-id, hyq-qp-solve and hyq-candump (issue #13, item 5): each gives one
+"""Hostile inputs to hyq-id, hyq-qp-solve and hyq-candump: each gives one
 clear message naming the input and a non-zero exit, never a crash, an abort or a hang, and
 hyq-id still solves the good lines around a bad one.
 

@@ -1,4 +1,4 @@
-// A plant that is not the model (issue 15, part 2): the perturbed model differs from the nominal
+// A plant that is not the model: the perturbed model differs from the nominal
 // one by what was asked, HyQ's hydraulic torque loop has its documented bandwidth, and friction,
 // delay, biases and the profiles behave as configured (label sim).
 #include <cmath>
@@ -12,10 +12,10 @@
 #include "config/hal_config_loader.h"
 #include "tests/dynamics/hyq_fixture.h"
 #include "tests/support/no_heap_guard.h"
-#include "tools/sim/experiment.h"
-#include "tools/sim/hydraulic_actuator.h"
-#include "tools/sim/plant.h"
-#include "tools/sim/plant_profile.h"
+#include "tools/experiment/experiment.h"
+#include "sim/hydraulic_actuator.h"
+#include "sim/plant.h"
+#include "sim/plant_profile.h"
 
 namespace hyq::sim {
 namespace {

@@ -11,7 +11,7 @@
 #include "dynamics/cycle_dynamics.h"
 #include "servo/estimation/friction_estimator.h"
 #include "tests/dynamics/hyq_fixture.h"
-#include "tools/sim/plant.h"
+#include "sim/plant.h"
 
 namespace hyq::sim {
 namespace {
@@ -135,7 +135,7 @@ TEST(Plant, FrictionPerFoot) {
   EXPECT_LE(worst, 0.05 * 1.03);
 }
 
-// Issue 18's friction patches: each foot takes the μ of the patch under it, at every step.
+// friction patches: each foot takes the μ of the patch under it, at every step.
 TEST(Plant, FrictionPatchesFollowTheFeet) {
   PlantConfig cfg;
   cfg.ground_mu = 1.0;

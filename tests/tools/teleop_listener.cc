@@ -1,5 +1,5 @@
 // The robot's side of tests/tools/teleop_test.sh: authenticates every datagram on HYQ_COMMAND
-// with the robot's key (servo/telemetry/command_auth.h, as the daemon's telemetry thread does)
+// with the robot's key (servo/command/command_auth.h, as the daemon's telemetry thread does)
 // and writes one line per datagram to OUT_FILE:
 //   ok KIND SEQUENCE VX VY WZ WALL_S        an authentic, fresh command
 //   refused WHY                             anything else
@@ -17,7 +17,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_base_state.hpp"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
 
 namespace {
 

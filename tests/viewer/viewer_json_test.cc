@@ -1,7 +1,8 @@
 // hyq-viewer's decoding and JSON frames (tools/hyq-viewer/telemetry_json.h) and its log player's
 // controls (log_player.h): messages encoded with the generated hyq_lcm types come out as the
 // page's JSON field by field; malformed bytes, unknown types and garbage controls are counted or
-// refused, never thrown.
+// refused, never thrown. And the field lists (lcmtypes/telemetry_fields.h): a field added to a
+// list reaches hyq-lcm-export's CSV and the viewer's JSON with no other change.
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -14,11 +15,84 @@
 #include "hyq_lcm/lcmt_hyq_event.hpp"
 #include "hyq_lcm/lcmt_hyq_joint_state.hpp"
 #include "hyq_lcm/lcmt_hyq_sim_truth.hpp"
+#include "tools/hyq-lcm-export/csv_rows.h"
 #include "tools/hyq-viewer/log_player.h"
 #include "tools/hyq-viewer/telemetry_json.h"
 
+namespace test_lcm {
+
+// lcmt_hyq_joint_torque with one field more, as lcm-gen would generate it after one line was
+// added to lcmt_hyq_joint_torque.lcm, and its list: today's list plus the one line a new field
+// adds.
+struct lcmt_hyq_joint_torque_plus : hyq_lcm::lcmt_hyq_joint_torque {
+  double pump_pressure_bar = 0.0;
+};
+
+template <class A>
+void Serialize(A* a, lcmt_hyq_joint_torque_plus* m) {
+  Serialize(a, static_cast<hyq_lcm::lcmt_hyq_joint_torque*>(m));
+  a->Visit("pump_pressure_bar", "bar", &m->pump_pressure_bar);
+}
+
+}  // namespace test_lcm
+
 namespace hyq::viewer {
 namespace {
+
+TEST(TelemetryFields, AFieldAddedToTheListReachesCsvAndJson) {
+  test_lcm::lcmt_hyq_joint_torque_plus m{};
+  m.cycle = 9;
+  m.controller = 3;
+  for (int j = 0; j < 12; ++j) m.tau_command_Nm[j] = 0.5 * j;
+  m.pump_pressure_bar = 171.25;
+  const hyq_lcm::lcmt_hyq_joint_torque& today = m;
+
+  EXPECT_EQ(lcm_export::CsvHeader<test_lcm::lcmt_hyq_joint_torque_plus>(),
+            lcm_export::CsvHeader<hyq_lcm::lcmt_hyq_joint_torque>() + ",pump_pressure_bar (bar)");
+  EXPECT_EQ(lcm_export::CsvRow(m), lcm_export::CsvRow(today) + ",171.25");
+
+  nlohmann::json json = ToJson(m);
+  EXPECT_DOUBLE_EQ(json["pump_pressure_bar"].get<double>(), 171.25);
+  json.erase("pump_pressure_bar");
+  EXPECT_EQ(json, ToJson(today));
+}
+
+// Every element of every kind of field, named in the CSV header and present in the JSON: arrays
+// of messages (the buses), labels per device, 2-D arrays, booleans, byte arrays.
+TEST(TelemetryFields, TheListsDriveEveryColumnAndKey) {
+  hyq_lcm::lcmt_hyq_health h{};
+  h.buses[7].wkc_received = 5;
+  h.max_held_in_row[15] = 4;
+  const std::string header = lcm_export::CsvHeader<hyq_lcm::lcmt_hyq_health>();
+  EXPECT_NE(header.find(",bus7.wkc_received (count),num_devices (count),device_state.0 (enum),"),
+            std::string::npos)
+      << header;
+  EXPECT_NE(header.find(",max_held_in_row.15 (count),max_held_cycles (count),"), std::string::npos);
+  const nlohmann::json hj = ToJson(h);
+  ASSERT_EQ(hj["buses"].size(), 8u);
+  EXPECT_EQ(hj["buses"][7]["wkc_received"], 5);
+  EXPECT_EQ(hj["max_held_in_row"][15], 4);
+
+  hyq_lcm::lcmt_hyq_friction_estimate f{};
+  f.force_N[3][2] = 2.5;
+  f.slipping[1] = 7;  // a boolean is any non-zero byte on the wire
+  const std::string row = lcm_export::CsvRow(f);
+  const std::string fh = lcm_export::CsvHeader<hyq_lcm::lcmt_hyq_friction_estimate>();
+  EXPECT_NE(fh.find("force_N.rh.z (N),loaded.lf (bool)"), std::string::npos) << fh;
+  EXPECT_NE(row.find(",2.5,0,0,0,0,0,1,0,0,"), std::string::npos) << row;
+  const nlohmann::json fj = ToJson(f);
+  EXPECT_DOUBLE_EQ(fj["force_N"][3][2].get<double>(), 2.5);
+  EXPECT_EQ(fj["slipping"], nlohmann::json({false, true, false, false}));
+
+  hyq_lcm::lcmt_hyq_signed_command sc{};
+  sc.sender = "op";
+  sc.mac[0] = 0xab;
+  sc.mac[31] = 0x01;
+  EXPECT_EQ(lcm_export::CsvHeader<hyq_lcm::lcmt_hyq_signed_command>(),
+            "sender (text),command_size (bytes),mac (hex)");
+  EXPECT_EQ(lcm_export::CsvRow(sc), "\"op\",0,\"ab" + std::string(60, '0') + "01\"");
+  EXPECT_EQ(ToJson(sc)["mac"], "ab" + std::string(60, '0') + "01");
+}
 
 template <class T>
 std::vector<std::uint8_t> Encode(const T& msg) {

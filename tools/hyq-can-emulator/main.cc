@@ -12,13 +12,11 @@
 #include <atomic>
 #include <cerrno>
 #include <cstdio>
-#include <cstdlib>
 #include <exception>
 #include <limits>
 #include <map>
 #include <memory>
 #include <string>
-#include <string_view>
 #include <vector>
 
 #include "config/hal_config_loader.h"
@@ -27,6 +25,7 @@
 #include "hal/emulator.h"
 #include "hal/hal.h"
 #include "hal/loopback_bus.h"
+#include "tools/cli/command_line.h"
 
 namespace {
 
@@ -41,68 +40,44 @@ struct Options {
   int silent_joint = -1;
 };
 
-[[noreturn]] void Usage(int code) {
-  std::fprintf(code == 0 ? stdout : stderr,
-               "usage: hyq-can-emulator [--config FILE] [--interface BUS=SPEC]... [--seconds S]\n"
-               "                        [--drop-probability P] [--silent-joint NAME] [--loopback]\n"
-               "HyQ's 12 actuator boards and IMU, answering NMT, SYNC and RPDOs on the configured\n"
-               "CAN buses until SIGINT/SIGTERM, then printing their counters.\n"
-               "  --config FILE         HAL configuration (default " HYQ_DEFAULT_HAL_CONFIG
-               ")\n"
-               "  --interface BUS=SPEC  open bus BUS on SPEC (socketcan:vcan0, udp::43113, ...;\n"
-               "                        docs/drivers.md) instead of its configured interface\n"
-               "  --seconds S           stop after S seconds (default: run until a signal;\n"
-               "                        2 with --loopback)\n"
-               "  --loopback            emulator + HAL master in this process (self-test)\n"
-               "  --drop-probability P  every board drops each TPDO with probability P\n"
-               "  --silent-joint NAME   this joint's board never answers (e.g. lh_kfe_joint)\n");
-  std::exit(code);
-}
+constexpr const char* kHelp =
+    "usage: hyq-can-emulator [--config FILE] [--interface BUS=SPEC]... [--seconds S]\n"
+    "                        [--drop-probability P] [--silent-joint NAME] [--loopback]\n"
+    "HyQ's 12 actuator boards and IMU, answering NMT, SYNC and RPDOs on the configured\n"
+    "CAN buses until SIGINT/SIGTERM, then printing their counters.\n"
+    "  --config FILE         HAL configuration (default " HYQ_DEFAULT_HAL_CONFIG ")\n"
+    "  --interface BUS=SPEC  open bus BUS on SPEC (socketcan:vcan0, udp::43113, ...;\n"
+    "                        docs/drivers.md) instead of its configured interface\n"
+    "  --seconds S           stop after S seconds (default: run until a signal;\n"
+    "                        2 with --loopback)\n"
+    "  --loopback            emulator + HAL master in this process (self-test)\n"
+    "  --drop-probability P  every board drops each TPDO with probability P\n"
+    "  --silent-joint NAME   this joint's board never answers (e.g. lh_kfe_joint)\n";
 
 Options Parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) Usage(2);
-      return argv[++i];
-    };
-    if (a == "--loopback")
+  hyq::cli::CommandLine cl(argc, argv, "hyq-can-emulator", kHelp);
+  while (cl.Next()) {
+    if (cl.Flag("--loopback")) {
       o.loopback = true;
-    else if (a == "--interface") {
-      const std::string v = value();
+    } else if (cl.Flag("--interface")) {
+      const std::string v = cl.Value();
       const auto eq = v.find('=');
-      if (eq == std::string::npos || eq == 0) {
-        std::fprintf(stderr, "hyq-can-emulator: --interface: expected BUS=SPEC, found '%s'\n",
-                     v.c_str());
-        std::exit(2);
-      }
+      if (eq == std::string::npos || eq == 0) cl.BadValue("BUS=SPEC", v);
       o.interfaces[v.substr(0, eq)] = v.substr(eq + 1);
-    } else if (a == "--config")
-      o.config = value();
-    else if (a == "--seconds") {
-      const std::string v = value();
-      char* end = nullptr;
-      o.seconds = std::strtod(v.c_str(), &end);
-      if (*end != '\0' || !(o.seconds > 0.0)) {
-        std::fprintf(stderr,
-                     "hyq-can-emulator: --seconds: expected a positive number, found '%s'\n",
-                     v.c_str());
-        std::exit(2);
-      }
-    } else if (a == "--drop-probability")
-      o.drop_probability = std::stod(value());
-    else if (a == "--silent-joint") {
-      const std::string name = value();
+    } else if (cl.Flag("--config")) {
+      o.config = cl.Value();
+    } else if (cl.Flag("--seconds")) {
+      o.seconds = cl.Number(1e-9, 1e9, "a positive number");
+    } else if (cl.Flag("--drop-probability")) {
+      o.drop_probability = cl.Number(0.0, 1.0);
+    } else if (cl.Flag("--silent-joint")) {
+      const std::string name = cl.Value();
       o.silent_joint = hyq::hal::JointIndex(name);
-      if (o.silent_joint < 0) {
-        std::fprintf(stderr, "hyq-can-emulator: unknown joint '%s'\n", name.c_str());
-        std::exit(2);
-      }
-    } else if (a == "-h" || a == "--help")
-      Usage(0);
-    else
-      Usage(2);
+      if (o.silent_joint < 0) cl.BadValue("a joint name (e.g. lh_kfe_joint)", name);
+    } else {
+      cl.Unknown();
+    }
   }
   return o;
 }
@@ -225,11 +200,8 @@ int RunLoopback(const Options& o, const hyq::hal::HalConfig& cfg) {
 
 int main(int argc, char** argv) {
   const Options o = Parse(argc, argv);
-  try {
+  return hyq::cli::Run("hyq-can-emulator", [&] {
     const hyq::hal::HalConfig cfg = hyq::config::LoadHalConfig(o.config);
     return o.loopback ? RunLoopback(o, cfg) : RunDevices(o, cfg);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "hyq-can-emulator: %s\n", e.what());
-    return 1;
-  }
+  });
 }

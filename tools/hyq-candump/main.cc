@@ -14,6 +14,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <exception>
+#include <limits>
 #include <string>
 #include <thread>
 #include <variant>
@@ -23,6 +24,7 @@
 #include "drivers/channel_error.h"
 #include "drivers/channel_factory.h"
 #include "hal/clock.h"
+#include "tools/cli/command_line.h"
 
 namespace {
 
@@ -34,17 +36,18 @@ void OnSignal(int) { g_stop = 1; }
 
 void SleepUs(long us) { std::this_thread::sleep_for(std::chrono::microseconds(us)); }
 
-// The channel's receive socket when it has one (to sleep in poll), else -1.
-int Usage(const char* why) {
-  std::fprintf(stderr,
-               "hyq-candump: %s\n"
-               "usage: hyq-candump [-o FILE] [-L NAME] [-n COUNT] [-t SECONDS] SPEC\n"
-               "       hyq-candump --play LOG [--as-fast] [-L NAME] SPEC\n"
-               "SPEC: socketcan:IF | socketcan-fd:IF | socketcan-classic:IF | "
-               "udp[:GROUP[:PORT]][,ttl=N,...] | replay:PATH\n",
-               why);
-  return 2;
-}
+constexpr const char* kHelp =
+    "usage: hyq-candump [-o FILE] [-L NAME] [-n COUNT] [-t SECONDS] SPEC\n"
+    "       hyq-candump --play LOG [--as-fast] [-L NAME] SPEC\n"
+    "Records a CAN bus to a candump log (default: standard output), or plays a log onto it.\n"
+    "SPEC: socketcan:IF | socketcan-fd:IF | socketcan-classic:IF | "
+    "udp[:GROUP[:PORT]][,ttl=N,...] | replay:PATH\n"
+    "  -o FILE      the log to write (- for standard output)\n"
+    "  -L NAME      the interface name written in (or selected from) the log\n"
+    "  -n COUNT     stop after COUNT frames (0: no limit)\n"
+    "  -t SECONDS   stop after SECONDS (0: no limit)\n"
+    "  --play LOG   play LOG's frames onto SPEC instead\n"
+    "  --as-fast    with --play: as fast as the bus takes them, not at the logged times\n";
 
 int Record(hyq::hal::CanChannel& ch, const std::string& out_path, const std::string& name,
            long count, double seconds) {
@@ -134,43 +137,33 @@ int main(int argc, char** argv) {
   long count = 0;
   double seconds = 0;
   bool as_fast = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw std::invalid_argument(a + " needs a value");
-      return argv[++i];
-    };
-    try {
-      if (a == "-o") {
-        out_path = value();
-      } else if (a == "-L") {
-        name = value();
-      } else if (a == "-n") {
-        count = std::stol(value());
-      } else if (a == "-t") {
-        seconds = std::stod(value());
-      } else if (a == "--play") {
-        play_path = value();
-      } else if (a == "--as-fast") {
-        as_fast = true;
-      } else if (a == "-h" || a == "--help") {
-        Usage("record or play a CAN bus");
-        return 0;
-      } else if (!a.empty() && a[0] == '-') {
-        return Usage(("unknown option " + a).c_str());
-      } else if (spec.empty()) {
-        spec = a;
-      } else {
-        return Usage(("unexpected argument " + a).c_str());
-      }
-    } catch (const std::exception& e) {
-      return Usage(e.what());
+  hyq::cli::CommandLine cl(argc, argv, "hyq-candump", kHelp);
+  while (cl.Next()) {
+    if (cl.Flag("-o")) {
+      out_path = cl.Value();
+    } else if (cl.Flag("-L")) {
+      name = cl.Value();
+    } else if (cl.Flag("-n")) {
+      count = static_cast<long>(cl.Integer(0, std::numeric_limits<long>::max(), "a frame count"));
+    } else if (cl.Flag("-t")) {
+      seconds = cl.Number(0.0, 1e9, "a number of seconds >= 0");
+    } else if (cl.Flag("--play")) {
+      play_path = cl.Value();
+    } else if (cl.Flag("--as-fast")) {
+      as_fast = true;
+    } else if (cl.IsOption()) {
+      cl.Unknown();
+    } else if (spec.empty()) {
+      spec = cl.arg();
+    } else {
+      cl.Fail("expected one channel spec, found another: '" + cl.arg() + "'");
     }
   }
-  if (spec.empty()) return Usage("no channel spec");
+  if (spec.empty()) cl.Fail("expected a channel spec (SPEC), found none");
   std::signal(SIGINT, OnSignal);
   std::signal(SIGTERM, OnSignal);
-  try {
+  // a ChannelError, or bad_alloc for a log beyond memory: exit 1
+  return hyq::cli::Run("hyq-candump", [&] {
     const hyq::drivers::ChannelSpec parsed = hyq::drivers::ParseChannelSpec(spec);
     if (name.empty() && play_path.empty()) {
       const auto* sc = std::get_if<hyq::drivers::SocketCanOptions>(&parsed);
@@ -179,8 +172,5 @@ int main(int argc, char** argv) {
     auto ch = hyq::drivers::OpenChannel(parsed);
     return play_path.empty() ? Record(*ch, out_path, name, count, seconds)
                              : Play(*ch, play_path, name, as_fast);
-  } catch (const std::exception& e) {  // ChannelError, or bad_alloc for a log beyond memory
-    std::fprintf(stderr, "hyq-candump: %s\n", e.what());
-    return 1;
-  }
+  });
 }

@@ -1,10 +1,7 @@
 // hyq-command: sends one operator command (lcmt_hyq_command) to the servo's command channel.
-#include <cerrno>
-#include <cmath>
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
+#include <limits>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -12,7 +9,8 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "hyq_lcm/lcmt_hyq_command.hpp"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
+#include "tools/cli/command_line.h"
 
 namespace {
 
@@ -53,20 +51,6 @@ options:
   -h, --help             this text
 )";
 
-[[noreturn]] void Fail(const std::string& what) {
-  std::fprintf(stderr, "hyq-command: %s\n(hyq-command --help for usage)\n", what.c_str());
-  std::exit(2);
-}
-
-double ParseNumber(const std::string& what, const char* text) {
-  char* end = nullptr;
-  errno = 0;
-  const double v = std::strtod(text, &end);
-  if (end == text || *end != '\0' || errno == ERANGE)
-    Fail(what + ": expected a number, found '" + text + "'");
-  return v;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -78,51 +62,36 @@ int main(int argc, char** argv) {
   long long sequence = now_us;
   std::string key_file = hyq::servo::DefaultCommandKeyFile();
   std::string sender = hyq::servo::DefaultCommandSender();
-  std::vector<const char*> args;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    const auto value = [&](const char* name) -> const char* {
-      if (i + 1 >= argc) Fail(std::string(name) + ": expected a value, found none");
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    } else if (a == "--generate-key") {
-      const std::string path = value("--generate-key");
-      try {
+  std::vector<std::string> args;
+  hyq::cli::CommandLine cl(argc, argv, "hyq-command", kUsage);
+  while (cl.Next()) {
+    if (cl.Flag("--generate-key")) {
+      const std::string path = cl.Value();
+      return hyq::cli::Run(cl.tool(), [&] {
         hyq::servo::GenerateCommandKey(path);
-      } catch (const std::exception& e) {
-        std::fprintf(stderr, "hyq-command: %s\n", e.what());
-        return 1;
-      }
-      std::printf("hyq-command: wrote a new key to %s (mode 0600); give the servo the same file\n",
-                  path.c_str());
-      return 0;
-    } else if (a == "--key") {
-      key_file = value("--key");
-    } else if (a == "--sender") {
-      sender = value("--sender");
-      if (sender.empty() || sender.size() > 63) Fail("--sender: expected 1..63 bytes, found " +
-                                                     std::to_string(sender.size()));
-    } else if (a == "--lcm-url") {
-      url = value("--lcm-url");
-    } else if (a.starts_with("--lcm-url=")) {
-      url = std::string(a.substr(10));
-    } else if (a == "--channel") {
-      channel = value("--channel");
-    } else if (a.starts_with("--channel=")) {
-      channel = std::string(a.substr(10));
-    } else if (a == "--sequence") {
-      sequence = static_cast<long long>(ParseNumber("--sequence", value("--sequence")));
-    } else if (a.starts_with("--") && a.size() > 2) {
-      Fail("unknown option '" + std::string(a) + "'");
+        std::printf("hyq-command: wrote a new key to %s (mode 0600); give the servo the same file\n",
+                    path.c_str());
+        return 0;
+      });
+    } else if (cl.Flag("--key")) {
+      key_file = cl.Value();
+    } else if (cl.Flag("--sender")) {
+      sender = cl.Text(1, hyq::servo::kMaxSenderBytes);
+    } else if (cl.Flag("--lcm-url")) {
+      url = cl.Value();
+    } else if (cl.Flag("--channel")) {
+      channel = cl.Value();
+    } else if (cl.Flag("--sequence")) {
+      sequence = cl.Integer(std::numeric_limits<long long>::min(),
+                            std::numeric_limits<long long>::max(), "an integer");
+    } else if (cl.IsOption()) {
+      cl.Unknown();
     } else {
-      args.push_back(argv[i]);
+      args.push_back(cl.arg());
     }
   }
   if (args.empty())
-    Fail("expected a command (enable, disable, damp, ack, mu, controller, gains, velocity)");
+    cl.Fail("expected a command (enable, disable, damp, ack, mu, controller, gains, velocity)");
 
   using K = hyq_lcm::lcmt_hyq_command;
   K msg{};
@@ -133,7 +102,7 @@ int main(int argc, char** argv) {
   const std::size_t nargs = args.size() - 1;
   const auto expect_args = [&](std::size_t n, const char* what) {
     if (nargs != n)
-      Fail(std::string(cmd) + ": expected " + what + ", found " + std::to_string(nargs) +
+      cl.Fail(std::string(cmd) + ": expected " + what + ", found " + std::to_string(nargs) +
            " argument(s)");
   };
   if (cmd == "enable" || cmd == "disable" || cmd == "damp" || cmd == "ack") {
@@ -147,7 +116,7 @@ int main(int argc, char** argv) {
     msg.kind = K::KIND_SET_MU;
     msg.num_feet = 4;
     for (std::size_t f = 0; f < 4; ++f)
-      msg.mu.push_back(ParseNumber("mu[" + std::to_string(f) + "]", args[f + 1]));
+      msg.mu.push_back(cl.NumberOf("mu[" + std::to_string(f) + "]", args[f + 1]));
   } else if (cmd == "controller") {
     expect_args(1, "a controller name (pid, noslip, stage1, two_stage, pd_gravity)");
     msg.kind = K::KIND_SET_CONTROLLER;
@@ -155,40 +124,36 @@ int main(int argc, char** argv) {
   } else if (cmd == "gains") {
     expect_args(2, "KP_SCALE KD_SCALE");
     msg.kind = K::KIND_SET_GAINS;
-    msg.kp_scale = ParseNumber("KP_SCALE", args[1]);
-    msg.kd_scale = ParseNumber("KD_SCALE", args[2]);
+    msg.kp_scale = cl.NumberOf("KP_SCALE", args[1]);
+    msg.kd_scale = cl.NumberOf("KD_SCALE", args[2]);
   } else if (cmd == "velocity") {
     expect_args(3, "VX VY WZ (m/s, m/s, rad/s)");
     msg.kind = K::KIND_SET_VELOCITY;
     for (std::size_t i = 0; i < 3; ++i) {
       const char* name = i == 0 ? "VX" : i == 1 ? "VY" : "WZ";
-      msg.velocity[i] = ParseNumber(name, args[i + 1]);
-      if (!std::isfinite(msg.velocity[i]))
-        Fail(std::string(name) + ": expected a finite number, found '" + args[i + 1] + "'");
+      msg.velocity[i] = cl.NumberOf(name, args[i + 1]);
     }
   } else {
-    Fail("unknown command '" + std::string(cmd) +
+    cl.Fail("unknown command '" + std::string(cmd) +
          "' (expected enable, disable, damp, ack, mu, controller, gains or velocity)");
   }
 
-  std::vector<std::uint8_t> signed_bytes;
-  try {
-    signed_bytes = hyq::servo::SignCommand(hyq::servo::LoadCommandKey(key_file), sender, msg);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "hyq-command: %s\n", e.what());
-    return 1;
-  }
-  lcm::LCM lcm(url);
-  if (!lcm.good()) {
-    std::fprintf(stderr, "hyq-command: cannot open LCM on '%s'\n", url.c_str());
-    return 1;
-  }
-  if (lcm.publish(channel, signed_bytes.data(), static_cast<unsigned>(signed_bytes.size())) != 0) {
-    std::fprintf(stderr, "hyq-command: publishing on '%s' failed\n", channel.c_str());
-    return 1;
-  }
-  std::printf("hyq-command: sent %.*s (sequence %lld, signed by %s) on %s via %s\n",
-              static_cast<int>(cmd.size()), cmd.data(), static_cast<long long>(sequence),
-              sender.c_str(), channel.c_str(), url.c_str());
-  return 0;
+  // a key file that is missing or readable by others: exit 1
+  return hyq::cli::Run(cl.tool(), [&] {
+    const std::vector<std::uint8_t> signed_bytes =
+        hyq::servo::SignCommand(hyq::servo::LoadCommandKey(key_file), sender, msg);
+    lcm::LCM lcm(url);
+    if (!lcm.good()) {
+      std::fprintf(stderr, "hyq-command: cannot open LCM on '%s'\n", url.c_str());
+      return 1;
+    }
+    if (lcm.publish(channel, signed_bytes.data(), static_cast<unsigned>(signed_bytes.size())) != 0) {
+      std::fprintf(stderr, "hyq-command: publishing on '%s' failed\n", channel.c_str());
+      return 1;
+    }
+    std::printf("hyq-command: sent %.*s (sequence %lld, signed by %s) on %s via %s\n",
+                static_cast<int>(cmd.size()), cmd.data(), static_cast<long long>(sequence),
+                sender.c_str(), channel.c_str(), url.c_str());
+    return 0;
+  });
 }

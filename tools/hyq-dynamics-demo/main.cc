@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <cstdlib>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -16,6 +15,7 @@
 #include "dynamics/configuration.h"
 #include "dynamics/cycle_dynamics.h"
 #include "dynamics/urdf_loader.h"
+#include "tools/cli/command_line.h"
 
 namespace {
 
@@ -32,31 +32,19 @@ constexpr std::string_view kUsage =
     "  --cycles N    cycles of the swaying motion to time (default 20000, 1 kHz = 20 s of motion)\n"
     "  --help        this text\n";
 
-[[noreturn]] void UsageError(const std::string& msg) {
-  std::fprintf(stderr, "hyq-dynamics-demo: %s\n\n%s", msg.c_str(), kUsage.data());
-  std::exit(2);
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
   std::string urdf = HYQ_DEFAULT_URDF;
   long cycles = 20000;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view arg = argv[i];
-    if (arg == "--help" || arg == "-h") {
-      std::fputs(kUsage.data(), stdout);
-      return 0;
-    } else if (arg == "--urdf" && i + 1 < argc) {
-      urdf = argv[++i];
-    } else if (arg == "--cycles" && i + 1 < argc) {
-      char* end = nullptr;
-      cycles = std::strtol(argv[++i], &end, 10);
-      if (*end != '\0' || cycles < 1 || cycles > 100'000'000)
-        UsageError(std::string("--cycles: expected an integer from 1 to 1e8, found '") + argv[i] +
-                   "'");
+  hyq::cli::CommandLine cl(argc, argv, "hyq-dynamics-demo", std::string(kUsage));
+  while (cl.Next()) {
+    if (cl.Flag("--urdf")) {
+      urdf = cl.Value();
+    } else if (cl.Flag("--cycles")) {
+      cycles = static_cast<long>(cl.Integer(1, 100'000'000, "an integer from 1 to 1e8"));
     } else {
-      UsageError("unknown or incomplete option '" + std::string(arg) + "'");
+      cl.Unknown();
     }
   }
 

@@ -20,7 +20,7 @@
 #include "config/servo_config_loader.h"
 #include "dynamics/urdf_loader.h"
 #include "servo/control/id_record.h"
-#include "tools/sim/experiment.h"
+#include "tools/experiment/experiment.h"
 
 namespace {
 
@@ -38,7 +38,7 @@ constexpr std::string_view kUsage =
     "(default DIR: experiments; figures through tools/hyq-experiment/plot.py and matplotlib).\n"
     "\n"
     "  --all            every scenario (about two minutes)\n"
-    "  --patch          issue 18's scenarios only: a trot from mu = 1 across an icy patch\n"
+    "  --patch          the icy-patch scenarios only: a trot from mu = 1 across an icy patch\n"
     "                   (mu = 0.1, x in [0.6, 1.2] m) and off it, the controller's mu assumed\n"
     "                   (1.0), given by an oracle, or estimated online; seeds 1-3\n"
     "  --scenario NAME  one scenario (repeatable); --list shows the names\n"
@@ -61,7 +61,7 @@ constexpr std::string_view kUsage =
 
 struct Scenario {
   std::string name;
-  sim::ExperimentConfig cfg;
+  experiment::ExperimentConfig cfg;
 };
 
 sim::GroundPatch PatchOfIce() {
@@ -83,11 +83,11 @@ std::vector<Scenario> Scenarios() {
     for (auto [cname, kind] : controllers) {
       char buf[64];
       std::snprintf(buf, sizeof(buf), "trot_mu%.1f_%s", mu, cname);
-      sim::ExperimentConfig c;
+      experiment::ExperimentConfig c;
       c.reference = servo::Reference::Kind::kTrot;
       c.duration_s = 6.0;
       c.mu = mu;
-      c.controller = sim::StandardController(kind);
+      c.controller = experiment::StandardController(kind);
       all.push_back({buf, c});
       std::snprintf(buf, sizeof(buf), "eight_mu%.1f_%s", mu, cname);
       c.reference = servo::Reference::Kind::kFigureEight;
@@ -97,42 +97,42 @@ std::vector<Scenario> Scenarios() {
   }
   for (auto [cname, kind] : {std::pair{"stage1", ControllerKind::kStage1Id},
                              std::pair{"two_stage", ControllerKind::kTwoStageId}}) {
-    sim::ExperimentConfig c;
+    experiment::ExperimentConfig c;
     c.reference = servo::Reference::Kind::kTrot;
     c.duration_s = 3.0;
     c.mu = 1.0;
-    c.controller = sim::StandardController(kind);
+    c.controller = experiment::StandardController(kind);
     all.push_back({std::string("fig1_") + cname, c});
   }
-  // issue 18: trot from μ = 1 across an icy patch and off it again (front feet on it from about
+  // trot from μ = 1 across an icy patch and off it again (front feet on it from about
   // 2.4 s, hind feet off it at about 9 s)
-  for (auto [sname, source] : {std::pair{"assumed", sim::MuSource::kAssumed},
-                               std::pair{"oracle", sim::MuSource::kOracle},
-                               std::pair{"estimated", sim::MuSource::kEstimated}}) {
+  for (auto [sname, source] : {std::pair{"assumed", experiment::MuSource::kAssumed},
+                               std::pair{"oracle", experiment::MuSource::kOracle},
+                               std::pair{"estimated", experiment::MuSource::kEstimated}}) {
     for (std::uint64_t seed = 1; seed <= 3; ++seed) {
-      sim::ExperimentConfig c;
+      experiment::ExperimentConfig c;
       c.reference = servo::Reference::Kind::kTrot;
       c.duration_s = 10.0;
       c.mu = 1.0;
       c.patches = {PatchOfIce()};
       c.mu_source = source;
-      c.controller = sim::StandardController(ControllerKind::kTwoStageId);
+      c.controller = experiment::StandardController(ControllerKind::kTwoStageId);
       c.seed = seed;
       c.initial_perturbation_rad = 0.02;
       all.push_back({std::string("patch_") + sname + "_s" + std::to_string(seed), c});
     }
   }
-  sim::ExperimentConfig t;
+  experiment::ExperimentConfig t;
   t.reference = servo::Reference::Kind::kTrot;
   t.duration_s = 60.0;
   t.mu = 0.1;
-  t.controller = sim::StandardController(ControllerKind::kTwoStageId);
+  t.controller = experiment::StandardController(ControllerKind::kTwoStageId);
   all.push_back({"timing_trot60_two_stage", t});
   for (auto& s : all) s.cfg.name = s.name;
   return all;
 }
 
-// Issue 18's table: per μ source, mean and spread over the seeds on the patch, and the
+// The icy patch's table: per μ source, mean and spread over the seeds on the patch, and the
 // estimate's settling after each change of the ground under a foot.
 void WritePatchTable(const nlohmann::json& results, std::ostream& md) {
   struct Acc {
@@ -183,7 +183,7 @@ void WritePatchTable(const nlohmann::json& results, std::ostream& md) {
     std::snprintf(b, sizeof(b), "%.2f", *std::max_element(v.begin(), v.end()));
     return std::string(b);
   };
-  md << "\nIssue 18: trot from μ = 1 across an icy patch (μ = 0.1) and off it; mean (min–max) over "
+  md << "\nThe icy patch: trot from μ = 1 across an icy patch (μ = 0.1) and off it; mean (min–max) over "
         "the seeds; on the patch = cycles with a stance foot on it\n\n"
         "| controller's μ | runs | falls | mean error on the patch (rad) | mean stance-foot slip on "
         "the patch (m/s) | mean error, whole run (rad) | footfalls to settle onto / off the ice "
@@ -363,7 +363,7 @@ int main(int argc, char** argv) {
   for (std::size_t i = 0; i < run.size(); ++i) {
     const Scenario& s = *run[i];
     const auto t0 = std::chrono::steady_clock::now();
-    sim::ExperimentConfig cfg = s.cfg;
+    experiment::ExperimentConfig cfg = s.cfg;
     cfg.record_id_inputs = record_id && cfg.controller.kind != ControllerKind::kPid;
     if (gains) {
       cfg.controller.pid = gains->pid;
@@ -376,11 +376,11 @@ int main(int argc, char** argv) {
     }
     cfg.profile = profile;
     cfg.joints.assign(hal_config.joints.begin(), hal_config.joints.end());
-    const auto r = sim::RunExperiment(model, cfg, [&](double f) {
+    const auto r = experiment::RunExperiment(model, cfg, [&](double f) {
       std::fprintf(stderr, "\r[%zu/%zu] %-26s %3.0f %%", i + 1, run.size(), s.name.c_str(), 100 * f);
     });
     const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    sim::WriteCsv(r, out_dir + "/" + s.name + ".csv");
+    experiment::WriteCsv(r, out_dir + "/" + s.name + ".csv");
     if (cfg.record_id_inputs) {
       std::ofstream id_file(out_dir + "/" + s.name + ".id.jsonl");
       servo::IdRecord rec;
@@ -422,7 +422,7 @@ int main(int argc, char** argv) {
       for (const auto& st : r.settling)
         settling.push_back({{"foot", st.foot}, {"t_s", st.t_s}, {"from_mu", st.from_mu},
                             {"to_mu", st.to_mu}, {"footfalls", st.footfalls}, {"lag_s", st.lag_s}});
-      results[s.name]["patch"] = {{"mu_source", sim::ToString(s.cfg.mu_source)},
+      results[s.name]["patch"] = {{"mu_source", experiment::ToString(s.cfg.mu_source)},
                                   {"cycles", r.patch_cycles},
                                   {"mean_error_rad", r.patch_mean_error_rad},
                                   {"mean_slip_speed_m_s", r.patch_mean_slip_speed},

@@ -7,7 +7,7 @@ fig1_torques.png    torque profiles, Stage I only vs Stage I + II, through conta
 fig2_mu0.1.png      norm of the joint tracking error, trot (top) and Figure-Eight (bottom),
                     PID / no-slip ID / two-stage ID, with a histogram at right, mu = 0.1
 fig3_mu1.0.png      the same on mu = 1.0
-fig_patch_mu.png    issue 18: a trot across an icy patch, the estimated (and Stage I's) vs the
+fig_patch_mu.png    a trot across an icy patch, the estimated (and Stage I's) vs the
                     true mu per foot over time, and the tracking error with mu assumed,
                     given by an oracle and estimated
 """
@@ -114,7 +114,7 @@ def patch_figure(out_dir, seed="s1"):
         ax.set_ylabel(f"{FEET[leg]} μ")
         ax.set_ylim(0, 1.1)
     axes[0].legend(loc="lower left", fontsize=7, ncol=4)
-    axes[0].set_title(f"Issue 18: trot across an icy patch (μ = 0.1) and off it ({seed}; grey: stance)")
+    axes[0].set_title(f"Trot across an icy patch (μ = 0.1) and off it ({seed}; grey: stance)")
     ax = axes[4]
     for src, style in SOURCES.items():
         path = os.path.join(out_dir, f"patch_{src}_{seed}.csv")

@@ -1,7 +1,6 @@
 // hyq-id: solves ID problem files (servo/control/id_record.h) line by line.
 #include <chrono>
 #include <cstdio>
-#include <cstdlib>
 #include <exception>
 #include <filesystem>
 #include <fstream>
@@ -13,6 +12,7 @@
 #include "dynamics/cycle_dynamics.h"
 #include "dynamics/urdf_loader.h"
 #include "servo/control/id_record.h"
+#include "tools/cli/command_line.h"
 
 namespace {
 
@@ -34,11 +34,6 @@ constexpr std::string_view kUsage =
     "  --help         this text\n"
     "\n"
     "exit status: 0 all lines solved, 1 some lines bad or a solve fell back, 2 usage or I/O error\n";
-
-[[noreturn]] void Usage(const std::string& msg) {
-  std::fprintf(stderr, "hyq-id: %s\n\n%s", msg.c_str(), kUsage.data());
-  std::exit(2);
-}
 
 const char* Kind(std::filesystem::file_type t) {
   switch (t) {
@@ -85,30 +80,23 @@ bool ReadLine(std::istream& in, std::size_t max, std::string* line, bool* too_lo
 int main(int argc, char** argv) {
   std::string urdf = HYQ_DEFAULT_URDF, in_path, out_path;
   int tangents = 4;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage.data(), stdout);
-      return 0;
-    } else if (a == "--urdf" && i + 1 < argc) {
-      urdf = argv[++i];
-    } else if (a == "--tangents" && i + 1 < argc) {
-      char* end = nullptr;
-      const long r = std::strtol(argv[++i], &end, 10);
-      if (*end != '\0' || r < 1 || r > servo::kMaxTangents)
-        Usage(std::string("--tangents: expected an integer from 1 to 8, found '") + argv[i] + "'");
-      tangents = static_cast<int>(r);
-    } else if (!a.empty() && a[0] == '-' && a != "-") {
-      Usage("unknown option '" + std::string(a) + "'");
+  hyq::cli::CommandLine cl(argc, argv, "hyq-id", std::string(kUsage));
+  while (cl.Next()) {
+    if (cl.Flag("--urdf")) {
+      urdf = cl.Value();
+    } else if (cl.Flag("--tangents")) {
+      tangents = static_cast<int>(cl.Integer(1, servo::kMaxTangents));
+    } else if (cl.IsOption()) {
+      cl.Unknown();
     } else if (in_path.empty()) {
-      in_path = a;
+      in_path = cl.arg();
     } else if (out_path.empty()) {
-      out_path = a;
+      out_path = cl.arg();
     } else {
-      Usage("expected two files, found a third: '" + std::string(a) + "'");
+      cl.Fail("expected two files, found a third: '" + cl.arg() + "'");
     }
   }
-  if (out_path.empty()) Usage("expected IN.jsonl and OUT.jsonl");
+  if (out_path.empty()) cl.Fail("expected IN.jsonl and OUT.jsonl");
 
   // the loader reads the whole file into memory: --urdf /dev/zero would end in bad_alloc
   if (const std::string why = NotAFile(urdf, false); !why.empty()) {

@@ -20,6 +20,7 @@
 #include <string_view>
 #include <vector>
 
+#include "tools/cli/command_line.h"
 #include "tools/hyq-lcm-export/csv_rows.h"
 #include "tools/hyq-lcm-export/lcm_log.h"
 
@@ -124,29 +125,22 @@ int RunPlot(const std::string& script, const std::string& dir) {
 int main(int argc, char** argv) {
   bool allow_undecodable = false, plot = false, quiet = false;
   std::vector<std::string> args;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    } else if (a == "--allow-undecodable") {
+  hyq::cli::CommandLine cl(argc, argv, "hyq-lcm-export", kUsage);
+  while (cl.Next()) {
+    if (cl.Flag("--allow-undecodable")) {
       allow_undecodable = true;
-    } else if (a == "--plot") {
+    } else if (cl.Flag("--plot")) {
       plot = true;
-    } else if (a == "--quiet" || a == "-q") {
+    } else if (cl.Flag("--quiet") || cl.Flag("-q")) {
       quiet = true;
-    } else if (a.starts_with("-") && a.size() > 1) {
-      std::fprintf(stderr, "hyq-lcm-export: unknown option '%s' (see --help)\n", argv[i]);
-      return 2;
+    } else if (cl.IsOption()) {
+      cl.Unknown();
     } else {
-      args.emplace_back(a);
+      args.push_back(cl.arg());
     }
   }
-  if (args.size() != 2) {
-    std::fprintf(stderr, "hyq-lcm-export: expected LOG and OUT_DIR, found %zu argument(s) (see --help)\n",
-                 args.size());
-    return 2;
-  }
+  if (args.size() != 2)
+    cl.Fail("expected LOG and OUT_DIR, found " + std::to_string(args.size()) + " argument(s)");
   const std::string log_path = args[0];
   const fs::path out_dir = args[1];
   MappedLog mapped;

@@ -61,6 +61,16 @@ def joint_figure(title, plot_joint):
     return fig
 
 
+def channel(out, prefix, name, figure):
+    """The columns of DIR/<prefix><name>.csv, or None (and says there is no `figure`) when the
+    file is absent or has no rows."""
+    cols = read(os.path.join(out, prefix + name + ".csv"))
+    if cols and cols["utime"]:
+        return cols
+    print("plot: no %s%s.csv, no %s" % (prefix, name, figure))
+    return None
+
+
 def save(fig, out, name, made):
     fig.tight_layout()
     fig.savefig(os.path.join(out, name), dpi=80)
@@ -76,8 +86,8 @@ def main():
     prefix = sys.argv[sys.argv.index("--prefix") + 1] if "--prefix" in sys.argv else "HYQ_"
     made = []
 
-    js = read(os.path.join(out, prefix + "JOINT_STATE.csv"))
-    if js and js["utime"]:
+    js = channel(out, prefix, "JOINT_STATE", "joint tracking figure")
+    if js:
         t = time_s(js)
 
         def tracking(ax, j):
@@ -86,26 +96,22 @@ def main():
 
         save(joint_figure("Joint tracking: q (measured) and q_ref (rad)", tracking), out,
              "joint_tracking.png", made)
-    else:
-        print("plot: no %sJOINT_STATE.csv, no joint tracking figure" % prefix)
 
-    jt = read(os.path.join(out, prefix + "JOINT_TORQUE.csv"))
-    if jt and jt["utime"]:
+    jt = channel(out, prefix, "JOINT_TORQUE", "torque figure")
+    if jt:
         t = time_s(jt)
 
         def torques(ax, j):
             ax.plot(t, num(jt, "tau_command_Nm." + j), lw=1, label="commanded")
-            if js and js["utime"]:
+            if js:
                 ax.plot(time_s(js), num(js, "tau_measured_Nm." + j), lw=1, alpha=0.7,
                         label="measured")
 
         save(joint_figure("Joint torques (N.m): commanded and measured", torques), out,
              "joint_torques.png", made)
-    else:
-        print("plot: no %sJOINT_TORQUE.csv, no torque figure" % prefix)
 
-    tm = read(os.path.join(out, prefix + "TIMING.csv"))
-    if tm and tm["utime"]:
+    tm = channel(out, prefix, "TIMING", "timing histogram")
+    if tm:
         fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.5))
         total = [v * 1e-3 for v in num(tm, "total_ns")]
         wake = [v * 1e-3 for v in num(tm, "wakeup_latency_ns")]
@@ -120,11 +126,9 @@ def main():
         for ax in (a, b):
             ax.set_yscale("log")
         save(fig, out, "timing_histogram.png", made)
-    else:
-        print("plot: no %sTIMING.csv, no timing histogram" % prefix)
 
-    ev = read(os.path.join(out, prefix + "EVENT.csv"))
-    if ev and ev["utime"]:
+    ev = channel(out, prefix, "EVENT", "events timeline")
+    if ev:
         fig, ax = plt.subplots(figsize=(12, 4.5))
         t = time_s(ev)
         to = [int(v) for v in ev["to_mode"]]
@@ -139,8 +143,6 @@ def main():
         ax.set_title("Safety events (%d)" % len(t))
         ax.set_ylim(-0.5, len(MODES) - 0.5)
         save(fig, out, "events_timeline.png", made)
-    else:
-        print("plot: no %sEVENT.csv, no events timeline" % prefix)
 
     print("plot: wrote %s in %s" % (", ".join(made) if made else "nothing", out))
     return 0

@@ -7,14 +7,15 @@
 //            2 usage error or malformed file (a message on stderr names the file and the key)
 #include <cmath>
 #include <cstdio>
-#include <cstring>
 #include <exception>
 #include <iostream>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "qp/solver.h"
+#include "tools/cli/command_line.h"
 #include "tools/hyq-qp-solve/problem_reader.h"
 
 namespace {
@@ -89,15 +90,15 @@ json ToJson(const hyq::qp::Problem& p, const hyq::qp::Solution& s) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc == 2 && (std::strcmp(argv[1], "--help") == 0 || std::strcmp(argv[1], "-h") == 0)) {
-    std::fputs(kUsage, stdout);
-    return 0;
+  std::vector<std::string> files;
+  hyq::cli::CommandLine cl(argc, argv, "hyq-qp-solve", kUsage);
+  while (cl.Next()) {
+    if (cl.IsOption()) cl.Unknown();
+    files.push_back(cl.arg());
   }
-  if (argc != 2 || argv[1][0] == '-') {
-    std::fputs(kUsage, stderr);
-    return 2;
-  }
-  const std::string file = argv[1];
+  if (files.size() != 1)
+    cl.Fail("expected one FILE.json, found " + std::to_string(files.size()) + " argument(s)");
+  const std::string& file = files[0];
   hyq::qp::Problem problem;
   try {
     problem = hyq::qp_solve::ReadProblemFile(file);

@@ -27,11 +27,12 @@
 #include "dynamics/urdf_loader.h"
 #include "hal/clock.h"
 #include "hal/hal.h"
-#include "servo/runtime/servo_loop.h"
+#include "servo/command/command_auth.h"
 #include "servo/runtime/realtime_thread.h"
+#include "servo/runtime/servo_loop.h"
 #include "servo/runtime/servo_runner.h"
-#include "servo/telemetry/command_auth.h"
 #include "servo/telemetry/telemetry.h"
+#include "tools/cli/command_line.h"
 
 namespace {
 
@@ -52,13 +53,11 @@ struct Options {
   int overrun_cycles = 0;
 };
 
-[[noreturn]] void Usage(int code) {
-  std::fprintf(code == 0 ? stdout : stderr,
-R"(usage: hyq-servod [--config FILE] [--check] [options]
+constexpr const char* kHelp = R"(usage: hyq-servod [--config FILE] [--check] [options]
 The HyQ servo daemon: every period it reads the joints and the IMU over CAN (HAL), estimates
 the base state, follows the reference with the configured controller (two-stage contact ID by
 default), checks everything (safety) and writes the joint torques; LCM telemetry on the side.
-  --config FILE          servo configuration (default %s)
+  --config FILE          servo configuration (default )" HYQ_DEFAULT_SERVO_CONFIG R"()
   --check                validate the configuration (and the HAL file and URDF it names), exit
   --interface BUS=SPEC   open bus BUS on SPEC (socketcan:can0, udp::43101, ...) instead of the
                          configured interface
@@ -85,94 +84,68 @@ default), checks everything (safety) and writes the joint torques; LCM telemetry
   -h, --help             this text
 Exit status: 0 after a controlled stop, 1 configuration or start-up error, 2 bad command line,
 3 stopped in FAULT (--exit-on-fault).
-)",
-               HYQ_DEFAULT_SERVO_CONFIG);
-  std::exit(code);
-}
+)";
 
-[[noreturn]] void BadFlag(const std::string& flag, const std::string& expected,
-                          const std::string& found) {
-  std::fprintf(stderr, "hyq-servod: %s: expected %s, found '%s' (see --help)\n", flag.c_str(),
-               expected.c_str(), found.c_str());
-  std::exit(2);
-}
-
-double ParseNumber(const std::string& flag, const std::string& v, double lo, double hi) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  if (v.empty() || end != v.c_str() + v.size() || !(x >= lo && x <= hi))
-    BadFlag(flag, "a number in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]", v);
-  return x;
-}
-
-Options Parse(int argc, char** argv) {
+Options Parse(hyq::cli::CommandLine& cl) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) BadFlag(a, "a value after it", "nothing");
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") Usage(0);
-    else if (a == "--config") o.config = value();
-    else if (a == "--check") o.check = true;
-    else if (a == "--quiet") o.quiet = true;
-    else if (a == "--auto-enable") o.auto_enable = true;
-    else if (a == "--commands") o.commands = true;
-    else if (a == "--command-key") o.command_key = value();
-    else if (a == "--exit-on-fault") o.exit_on_fault = true;
-    else if (a == "--no-telemetry") o.no_telemetry = true;
-    else if (a == "--lcm-url") o.lcm_url = value();
-    else if (a == "--summary") o.summary = value();
-    else if (a == "--interface") {
-      const std::string v = value();
+  while (cl.Next()) {
+    if (cl.Flag("--config")) o.config = cl.Value();
+    else if (cl.Flag("--check")) o.check = true;
+    else if (cl.Flag("--quiet")) o.quiet = true;
+    else if (cl.Flag("--auto-enable")) o.auto_enable = true;
+    else if (cl.Flag("--commands")) o.commands = true;
+    else if (cl.Flag("--command-key")) o.command_key = cl.Value();
+    else if (cl.Flag("--exit-on-fault")) o.exit_on_fault = true;
+    else if (cl.Flag("--no-telemetry")) o.no_telemetry = true;
+    else if (cl.Flag("--lcm-url")) o.lcm_url = cl.Value();
+    else if (cl.Flag("--summary")) o.summary = cl.Value();
+    else if (cl.Flag("--interface")) {
+      const std::string v = cl.Value();
       const auto eq = v.find('=');
-      if (eq == std::string::npos || eq == 0 || eq + 1 == v.size()) BadFlag(a, "BUS=SPEC", v);
+      if (eq == std::string::npos || eq == 0 || eq + 1 == v.size()) cl.BadValue("BUS=SPEC", v);
       o.interfaces[v.substr(0, eq)] = v.substr(eq + 1);
-    } else if (a == "--clock") {
-      o.clock = value();
-      if (*o.clock != "realtime" && *o.clock != "lockstep") BadFlag(a, "realtime or lockstep", *o.clock);
-    } else if (a == "--controller") {
-      o.controller = value();
+    } else if (cl.Flag("--clock")) {
+      o.clock = cl.Value();
+      if (*o.clock != "realtime" && *o.clock != "lockstep")
+        cl.BadValue("realtime or lockstep", *o.clock);
+    } else if (cl.Flag("--controller")) {
+      o.controller = cl.Value();
       if (!hyq::servo::ParseControllerKind(*o.controller))
-        BadFlag(a, "pid, noslip, stage1, two_stage or pd_gravity", *o.controller);
-    } else if (a == "--reference") {
-      o.reference = value();
+        cl.BadValue("pid, noslip, stage1, two_stage or pd_gravity", *o.controller);
+    } else if (cl.Flag("--reference")) {
+      o.reference = cl.Value();
       if (*o.reference != "stand" && *o.reference != "trot" && *o.reference != "figure_eight")
-        BadFlag(a, "stand, trot or figure_eight", *o.reference);
-    } else if (a == "--duration") {
-      o.duration = ParseNumber(a, value(), 0.0, 1e7);
-    } else if (a == "--mu") {
-      const std::string v = value();
+        cl.BadValue("stand, trot or figure_eight", *o.reference);
+    } else if (cl.Flag("--duration")) {
+      o.duration = cl.Number(0.0, 1e7);
+    } else if (cl.Flag("--mu")) {
+      const std::string v = cl.Value();
+      const std::vector<std::string> parts = hyq::cli::Split(v, ',');
+      if (parts.size() != 1 && parts.size() != 4)
+        cl.BadValue("one number or four (lf,rf,lh,rh)", v);
       std::array<double, 4> mu{};
-      std::vector<std::string> parts;
-      std::size_t start = 0;
-      for (std::size_t k = 0; k <= v.size(); ++k)
-        if (k == v.size() || v[k] == ',') {
-          parts.push_back(v.substr(start, k - start));
-          start = k + 1;
-        }
-      if (parts.size() != 1 && parts.size() != 4) BadFlag(a, "one number or four (lf,rf,lh,rh)", v);
       for (std::size_t f = 0; f < 4; ++f)
-        mu[f] = ParseNumber(a, parts[parts.size() == 1 ? 0 : f], 0.0, 2.0);
+        mu[f] = cl.NumberOf("--mu", parts[parts.size() == 1 ? 0 : f], 0.0, 2.0);
       o.mu = mu;
-    } else if (a == "--inject-overrun") {
-      const std::string v = value();
-      const auto c1 = v.find(':');
-      if (c1 == std::string::npos) BadFlag(a, "AT:US[:N]", v);
-      const auto c2 = v.find(':', c1 + 1);
-      o.overrun_at_s = ParseNumber(a, v.substr(0, c1), 0.0, 1e6);
-      o.overrun_us = ParseNumber(a, v.substr(c1 + 1, c2 == std::string::npos ? std::string::npos : c2 - c1 - 1), 0.0, 1e6);
-      o.overrun_cycles = c2 == std::string::npos ? 10 : static_cast<int>(ParseNumber(a, v.substr(c2 + 1), 1, 1e6));
+    } else if (cl.Flag("--inject-overrun")) {
+      const std::string v = cl.Value();
+      const std::vector<std::string> parts = hyq::cli::Split(v, ':');
+      if (parts.size() != 2 && parts.size() != 3) cl.BadValue("AT:US[:N]", v);
+      o.overrun_at_s = cl.NumberOf("--inject-overrun", parts[0], 0.0, 1e6);
+      o.overrun_us = cl.NumberOf("--inject-overrun", parts[1], 0.0, 1e6);
+      o.overrun_cycles =
+          parts.size() == 2 ? 10
+                            : static_cast<int>(cl.NumberOf("--inject-overrun", parts[2], 1, 1e6));
     } else {
-      BadFlag("command line", "an option (see --help)", a);
+      cl.Unknown();
     }
   }
   return o;
 }
 
-// Applies the command-line overrides; throws ConfigError naming the flag.
-void Override(const Options& o, hyq::servo::ServoConfig& c) {
+// Applies the command-line overrides; a bus name the configuration lacks is a usage error, the
+// rest is validated as the file is (ValidateServoConfig throws ConfigError).
+void Override(const hyq::cli::CommandLine& cl, const Options& o, hyq::servo::ServoConfig& c) {
   for (const auto& [bus, spec] : o.interfaces) {
     bool found = false;
     for (auto& b : c.hal.buses)
@@ -180,7 +153,7 @@ void Override(const Options& o, hyq::servo::ServoConfig& c) {
         b.interface = spec;
         found = true;
       }
-    if (!found) BadFlag("--interface", "a bus name of " + c.hal_file, bus);
+    if (!found) cl.Bad("--interface", "a bus name of " + c.hal_file, bus);
   }
   if (o.clock) c.clock = *o.clock == "lockstep" ? hyq::servo::ClockMode::kLockstep
                                                  : hyq::servo::ClockMode::kRealtime;
@@ -222,7 +195,7 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
   j["controller_fallbacks"] = s.controller_fallbacks;
   j["controller_fallbacks_deadline"] = s.controller_fallbacks_deadline;
   j["controller_fallbacks_deadline_stalled"] = s.controller_fallbacks_deadline_stalled;
-  auto hist = [](const hyq::servo::LatencyHistogram& h) {
+  auto hist = [](const hyq::hal::LatencyHistogram& h) {
     return nlohmann::json{{"count", h.count()},         {"mean_us", 1e-3 * h.mean_ns()},
                           {"p50_us", Us(h.Percentile(0.5))}, {"p99_us", Us(h.Percentile(0.99))},
                           {"p999_us", Us(h.Percentile(0.999))}, {"max_us", Us(h.max_ns())}};
@@ -271,12 +244,13 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-  const Options opt = Parse(argc, argv);
+  hyq::cli::CommandLine cl(argc, argv, "hyq-servod", kHelp);
+  const Options opt = Parse(cl);
   hyq::servo::ServoConfig config;
   std::unique_ptr<hyq::dynamics::Model> model;
   try {
     config = hyq::config::LoadServoConfig(opt.config);
-    Override(opt, config);
+    Override(cl, opt, config);
     try {
       model = std::make_unique<hyq::dynamics::Model>(hyq::dynamics::LoadModelFromUrdf(config.urdf));
     } catch (const std::exception& e) {

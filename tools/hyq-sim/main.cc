@@ -1,4 +1,4 @@
-// hyq-sim: the simulated HyQ (issue #8). The MuJoCo plant behind HyQ's 12 actuator boards and
+// hyq-sim: the simulated HyQ. The MuJoCo plant behind HyQ's 12 actuator boards and
 // IMU (hyq::sim::SimulatedRobot) on virtual CAN (udp::43101..43104 for lf, rf, lh, rh by default)
 // or SocketCAN, so that the unmodified servo daemon drives it like the real robot.
 // docs/simulation.md describes the modes, the models, the faults and this command line.
@@ -25,17 +25,21 @@
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
+#include <nlohmann/json.hpp>
 
 #include "config/hal_config_loader.h"
 #include "drivers/channel_factory.h"
 #include "dynamics/urdf_loader.h"
 #include "hal/clock.h"
 #include "servo/runtime/realtime_thread.h"
-#include "tools/sim/fault_spec.h"
-#include "tools/sim/simulated_robot.h"
+#include "sim/fault_spec.h"
+#include "sim/realtime_runner.h"
+#include "sim/simulated_robot.h"
 #include "hyq_lcm/lcmt_hyq_sim_truth.hpp"
 
 namespace {
+
+using Json = nlohmann::ordered_json;  // the summary's keys in the order written
 
 constexpr const char* kTool = "hyq-sim";
 constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
@@ -66,7 +70,7 @@ struct Options {
   int bus_priority = 75;
   int bus_cpu = hyq::servo::kAutoCpu;
   std::vector<std::pair<double, double>> stalls;  // --stall T:MS (simulated s, wall ms)
-  // the plant profile (issue 15): the named one, then each factor's flag on top of it
+  // the plant profile: the named one, then each factor's flag on top of it
   std::string profile = "ideal";
   std::vector<std::function<void(hyq::sim::PlantProfile*)>> profile_overrides;
   std::string write_model;  // write the plant's MJCF (with its model error) here and exit
@@ -415,16 +419,8 @@ void FillTruth(const hyq::sim::SimulatedRobot& r, hyq_lcm::lcmt_hyq_sim_truth* m
   m->holding = r.holding() ? 1 : 0;
 }
 
-std::string JsonString(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    out += c;
-  }
-  return out + "\"";
-}
-
-int Run(const Options& o) {
+/// The HAL configuration, checked against the command line's buses and SYNC phase.
+hyq::hal::HalConfig LoadConfig(const Options& o) {
   using namespace hyq;
   hal::HalConfig cfg = config::LoadHalConfig(o.config);
   for (const auto& [bus, spec] : o.interfaces) {
@@ -436,33 +432,312 @@ int Run(const Options& o) {
     Bad("--sync-phase", "microseconds below the cycle period of " + o.config + " (" +
                             std::to_string(std::llround(1e6 * cfg.timing.cycle_period_s)) + " µs)",
         std::to_string(o.robot.sync_phase_ns / 1000));
-  const dynamics::Model model = dynamics::LoadModelFromUrdf(o.urdf);
-  if (!o.write_model.empty()) {
-    // the plant's model as MuJoCo gets it: the nominal URDF with the profile's model error
-    sim::PlantConfig pc = o.robot.plant;
-    pc.timestep_s = cfg.timing.cycle_period_s;
-    pc.imu_sensor = true;
-    o.robot.profile.ApplyTo(&pc);
-    const sim::Plant plant(model, pc);
-    std::ofstream f(o.write_model);
-    if (!(f << plant.mjcf())) throw std::runtime_error("--write-model: cannot write '" + o.write_model + "'");
-    if (!o.quiet)
-      std::fprintf(stderr, "%s: wrote the %s plant's model (%.3f kg) to %s\n", kTool,
-                   o.robot.profile.name.c_str(), sim::PerturbModel(model, pc.model_error).TotalMass(),
-                   o.write_model.c_str());
-    return 0;
-  }
-  std::vector<std::unique_ptr<hal::CanChannel>> owned;
-  std::vector<hal::CanChannel*> channels;
+  return cfg;
+}
+
+/// --write-model: the plant's model as MuJoCo gets it, the nominal URDF with the profile's model
+/// error.
+int WriteModel(const Options& o, const hyq::hal::HalConfig& cfg, const hyq::dynamics::Model& model) {
+  using namespace hyq;
+  sim::PlantConfig pc = o.robot.plant;
+  pc.timestep_s = cfg.timing.cycle_period_s;
+  pc.imu_sensor = true;
+  o.robot.profile.ApplyTo(&pc);
+  const sim::Plant plant(model, pc);
+  std::ofstream f(o.write_model);
+  if (!(f << plant.mjcf())) throw std::runtime_error("--write-model: cannot write '" + o.write_model + "'");
+  if (!o.quiet)
+    std::fprintf(stderr, "%s: wrote the %s plant's model (%.3f kg) to %s\n", kTool,
+                 o.robot.profile.name.c_str(), sim::PerturbModel(model, pc.model_error).TotalMass(),
+                 o.write_model.c_str());
+  return 0;
+}
+
+/// One CAN channel per configured bus (the device side): --interface's, or the default virtual
+/// bus.
+struct Channels {
+  std::vector<std::unique_ptr<hyq::hal::CanChannel>> owned;
+  std::vector<hyq::hal::CanChannel*> raw;
+};
+Channels OpenChannels(const Options& o, const hyq::hal::HalConfig& cfg) {
+  Channels c;
   for (std::size_t b = 0; b < cfg.buses.size(); ++b) {
     const auto it = o.interfaces.find(cfg.buses[b].name);
-    const std::string spec = it != o.interfaces.end() ? drivers::SpecForInterface(it->second)
+    const std::string spec = it != o.interfaces.end() ? hyq::drivers::SpecForInterface(it->second)
                                                       : DefaultSpec(cfg.buses[b].name, b);
-    owned.push_back(drivers::OpenChannel(spec));
-    channels.push_back(owned.back().get());
+    c.owned.push_back(hyq::drivers::OpenChannel(spec));
+    c.raw.push_back(c.owned.back().get());
     if (!o.quiet) std::fprintf(stderr, "%s: bus %-3s on %s\n", kTool, cfg.buses[b].name.c_str(), spec.c_str());
   }
-  sim::SimulatedRobot robot(model, cfg, channels, o.robot);
+  return c;
+}
+
+/// What every step records: the truth (CSV and LCM), the injected stalls of the stepping thread,
+/// the progress lines, and the wall-clock times the speed is measured from.
+class StepRecorder {
+ public:
+  explicit StepRecorder(const Options& o) : o_(o), stalled_(o.stalls.size(), false) {
+    if (!o.truth.empty()) {
+      truth_.open(o.truth);
+      if (!truth_) throw std::runtime_error("--truth: cannot write '" + o.truth + "'");
+      truth_.precision(9);
+      truth_ << "t,x,y,z,qw,qx,qy,qz";
+      for (const char* p : {"q_", "qd_", "tau_"})
+        for (int j = 0; j < hyq::hal::kNumJoints; ++j) truth_ << ',' << p << hyq::hal::JointName(j);
+      for (const char* leg : {"lf", "rf", "lh", "rh"})
+        truth_ << ',' << leg << "_fx," << leg << "_fy," << leg << "_fz," << leg << "_touching";
+      truth_ << ",body_touching,holding";
+      for (const char* leg : {"lf", "rf", "lh", "rh"}) truth_ << ',' << leg << "_mu";
+      truth_ << '\n';
+    }
+    if (!o.lcm_truth_url.empty()) truth_lcm_ = std::make_unique<TruthPublisher>(o.lcm_truth_url);
+  }
+
+  void OnStep(const hyq::sim::SimulatedRobot& r) {
+    Stall(r);
+    last_step_wall_ = WallS();
+    if (r.counters().steps == 1) first_step_wall_ = last_step_wall_;
+    if (release_wall_ == 0 && !r.holding()) {
+      release_wall_ = last_step_wall_;
+      release_t_ = r.time_s();
+    }
+    if (truth_.is_open() && r.counters().steps % static_cast<std::uint64_t>(o_.truth_every) == 0)
+      WriteTruthRow(r);
+    if (truth_lcm_ && r.counters().steps % static_cast<std::uint64_t>(o_.lcm_truth_every) == 0) {
+      FillTruth(r, &truth_msg_);
+      truth_lcm_->Offer(truth_msg_);
+    }
+    if (!o_.quiet && r.time_s() + 1e-9 >= next_progress_) {
+      next_progress_ += 1.0;
+      const double wall = last_step_wall_ - first_step_wall_;
+      std::fprintf(stderr, "%s: t %.1f s, base z %.3f m%s%s, %.2fx real time\n", kTool,
+                   r.time_s(), r.plant().q()(2), r.holding() ? ", held" : "",
+                   r.fell() ? ", FELL" : "", wall > 0 ? r.time_s() / wall : 0.0);
+    }
+  }
+
+  /// Closes the truth file and stops the LCM publisher; returns the messages it published.
+  std::uint64_t Finish() {
+    if (truth_.is_open()) truth_.close();
+    const std::uint64_t published = truth_lcm_ ? truth_lcm_->published() : 0;
+    truth_lcm_.reset();
+    return published;
+  }
+
+  double stepping_wall_s() const { return last_step_wall_ - first_step_wall_; }
+  double released_at_s() const { return release_t_; }
+  /// Simulated over wall time since the release (0: never released).
+  double SpeedAfterRelease(double time_s) const {
+    return last_step_wall_ > release_wall_ && release_wall_ > 0
+               ? (time_s - release_t_) / (last_step_wall_ - release_wall_)
+               : 0.0;
+  }
+
+ private:
+  // --stall: the stepping thread stops, as on a preempted core
+  void Stall(const hyq::sim::SimulatedRobot& r) {
+    for (std::size_t i = 0; i < o_.stalls.size(); ++i)
+      if (!stalled_[i] && r.time_s() + 1e-9 >= o_.stalls[i].first) {
+        stalled_[i] = true;
+        const auto ns = static_cast<long long>(o_.stalls[i].second * 1e6);
+        const timespec d{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
+        nanosleep(&d, nullptr);
+      }
+  }
+
+  void WriteTruthRow(const hyq::sim::SimulatedRobot& r) {
+    const hyq::dynamics::VectorQ q = r.plant().q();
+    const hyq::dynamics::VectorV v = r.plant().v();
+    truth_ << r.time_s();
+    for (int i = 0; i < 7; ++i) truth_ << ',' << q(i);
+    for (int j = 0; j < hyq::hal::kNumJoints; ++j) truth_ << ',' << q(7 + j);
+    for (int j = 0; j < hyq::hal::kNumJoints; ++j) truth_ << ',' << v(6 + j);
+    for (int j = 0; j < hyq::hal::kNumJoints; ++j) truth_ << ',' << r.applied_torque_Nm()(j);
+    for (const hyq::sim::FootContact& c : r.plant().FootContacts())
+      truth_ << ',' << c.force_W.x() << ',' << c.force_W.y() << ',' << c.force_W.z() << ','
+             << (c.touching ? 1 : 0);
+    truth_ << ',' << (r.plant().BodyTouchesGround() ? 1 : 0) << ',' << (r.holding() ? 1 : 0);
+    for (int f = 0; f < 4; ++f) truth_ << ',' << r.plant().foot_friction(f);
+    truth_ << '\n';
+  }
+
+  const Options& o_;
+  std::ofstream truth_;
+  std::unique_ptr<TruthPublisher> truth_lcm_;
+  hyq_lcm::lcmt_hyq_sim_truth truth_msg_{};
+  double first_step_wall_ = 0, last_step_wall_ = 0, release_wall_ = 0, release_t_ = 0;
+  double next_progress_ = 1.0;
+  std::vector<bool> stalled_;
+};
+
+/// Real time: the stepping thread's and the bus thread's scheduling, as asked and as obtained.
+struct Threads {
+  hyq::servo::RealtimeReport stepping, bus;
+  hyq::servo::RealtimeConfig stepping_cfg, bus_cfg;
+  cpu_set_t all_cpus;
+  bool have_cpus = false;
+};
+
+/// The bus thread's CPU, resolved before the stepping thread pins itself (a thread inherits its
+/// creator's affinity: unpinned, it gets the process's whole set back); then the stepping
+/// thread's SCHED_FIFO, CPU and memory lock (real time with --rt-priority).
+void SetUpSteppingThread(const Options& o, Threads* t) {
+  using namespace hyq;
+  CPU_ZERO(&t->all_cpus);
+  t->have_cpus = sched_getaffinity(0, sizeof t->all_cpus, &t->all_cpus) == 0;
+  t->bus_cfg.cpu = servo::ResolveCpu(o.bus_cpu, true, -1);
+  if (o.lockstep || o.rt_priority <= 0) return;
+  t->stepping_cfg.priority = o.rt_priority;
+  t->stepping_cfg.cpu = servo::ResolveCpu(o.cpu, true, 0);
+  t->stepping = servo::SetUpRealtimeThread(t->stepping_cfg);
+  for (const std::string& w : t->stepping.warnings) std::fprintf(stderr, "%s: warning: %s\n", kTool, w.c_str());
+  if (!o.quiet)
+    std::fprintf(stderr, "%s: stepping thread %s, %s, memory %s\n", kTool,
+                 t->stepping.fifo ? ("SCHED_FIFO " + std::to_string(t->stepping_cfg.priority)).c_str()
+                                  : "SCHED_OTHER",
+                 t->stepping.pinned ? ("on CPU " + std::to_string(t->stepping_cfg.cpu)).c_str()
+                                    : "not pinned",
+                 t->stepping.locked ? "locked" : "not locked");
+}
+
+/// The bus thread's set-up, run first on that thread: its CPU (the process's whole set when
+/// none), and SCHED_FIFO with --bus-priority.
+hyq::sim::BusThreadConfig BusThread(const Options& o, Threads* t) {
+  using namespace hyq;
+  sim::BusThreadConfig bus;
+  bus.enabled = o.bus_thread;
+  bus.setup = [&o, t] {
+    if (t->bus_cfg.cpu == servo::kNoCpu && t->have_cpus)
+      (void)sched_setaffinity(0, sizeof t->all_cpus, &t->all_cpus);
+    if (o.bus_priority <= 0) {
+      if (t->bus_cfg.cpu != servo::kNoCpu) {
+        cpu_set_t one;
+        CPU_ZERO(&one);
+        CPU_SET(t->bus_cfg.cpu, &one);
+        t->bus.pinned = sched_setaffinity(0, sizeof one, &one) == 0;
+      }
+      return;
+    }
+    t->bus_cfg.priority = o.bus_priority;
+    t->bus_cfg.prefault_stack_kib = 64;
+    t->bus = servo::SetUpRealtimeThread(t->bus_cfg);
+    for (const std::string& w : t->bus.warnings)
+      std::fprintf(stderr, "%s: warning: bus thread: %s\n", kTool, w.c_str());
+    if (!o.quiet)
+      std::fprintf(stderr, "%s: bus thread %s, %s\n", kTool,
+                   t->bus.fifo ? ("SCHED_FIFO " + std::to_string(t->bus_cfg.priority)).c_str() : "SCHED_OTHER",
+                   t->bus.pinned ? ("on CPU " + std::to_string(t->bus_cfg.cpu)).c_str() : "not pinned");
+  };
+  return bus;
+}
+
+Json Histogram(const hyq::hal::LatencyHistogram& h) {
+  return {{"count", h.count()},
+          {"p50_us", 1e-3 * static_cast<double>(h.Percentile(0.5))},
+          {"p99_us", 1e-3 * static_cast<double>(h.Percentile(0.99))},
+          {"p999_us", 1e-3 * static_cast<double>(h.Percentile(0.999))},
+          {"max_us", 1e-3 * static_cast<double>(h.max_ns())}};
+}
+
+/// The boards at exit: their set-points, and whether they tripped on their own timer (a silent
+/// master) and how long after the last SYNC / set-point.
+void AddBoards(const hyq::hal::Emulator& e, Json* s) {
+  int tripped = 0;
+  double max_trip_delay_ms = 0.0, max_abs_setpoint_Nm = 0.0;
+  Json boards = Json::array();
+  for (int j = 0; j < hyq::hal::kNumJoints; ++j) {
+    const bool trip = e.setpoint_trip_ns(j) >= 0;
+    const double delay_ms = 1e-6 * static_cast<double>(e.setpoint_trip_delay_ns(j));
+    tripped += trip ? 1 : 0;
+    if (trip) max_trip_delay_ms = std::max(max_trip_delay_ms, delay_ms);
+    max_abs_setpoint_Nm = std::max(max_abs_setpoint_Nm, std::abs(e.torque_setpoint_Nm(j)));
+    boards.push_back({{"joint", std::string(hyq::hal::JointName(j))},
+                      {"setpoint_Nm", e.torque_setpoint_Nm(j)},
+                      {"outputs_enabled", e.outputs_enabled(j)},
+                      {"tripped", trip},
+                      {"trip_delay_ms", trip ? delay_ms : 0.0}});
+  }
+  (*s)["boards"] = std::move(boards);
+  (*s)["boards_tripped"] = tripped;
+  (*s)["max_trip_delay_ms"] = max_trip_delay_ms;
+  (*s)["max_abs_setpoint_Nm"] = max_abs_setpoint_Nm;
+}
+
+/// --summary: the run's outcome, counters, timing and the boards' state, as JSON (read by
+/// scripts/hil.sh, tests/hil/*.sh and scripts/*.py).
+Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
+                       hyq::sim::SimulatedRobot& robot, const hyq::sim::RealtimeRunner& runner,
+                       const StepRecorder& recorder, const Threads& t, double wall_s,
+                       std::uint64_t truth_published) {
+  using namespace hyq;
+  const auto& c = robot.counters();
+  // the boards' SYNCs left unanswered because a newer one waited (real time, behind)
+  std::uint64_t superseded_syncs = 0;
+  for (std::size_t b = 0; b < cfg.buses.size(); ++b)
+    superseded_syncs += robot.emulator().counters(static_cast<int>(b)).superseded_syncs;
+  const double stepping_wall = recorder.stepping_wall_s();
+  Json syncs = Json::object();
+  for (std::size_t b = 0; b < cfg.buses.size(); ++b) syncs[cfg.buses[b].name] = c.syncs[b];
+  Json s = {
+      {"mode", o.lockstep ? "lockstep" : "realtime"},
+      {"profile", Json::parse(o.robot.profile.Json())},
+      {"simulated_time_s", robot.time_s()},
+      {"steps", c.steps},
+      {"held_steps", c.held_steps},
+      {"fell", robot.fell()},
+      {"fell_at_s", robot.fell() ? robot.fell_at_s() : 0.0},
+      {"min_base_height_m", robot.min_base_height_m()},
+      {"max_descent_speed_m_s", robot.max_descent_speed_m_s()},
+      {"sat_down", robot.sat_down()},
+      {"sat_down_at_s", robot.sat_down() ? robot.sat_down_at_s() : 0.0},
+      {"contact_speed_m_s", robot.contact_speed_m_s()},
+      {"syncs_per_bus", std::move(syncs)},
+      {"wall_s", wall_s},
+      {"stepping_wall_s", stepping_wall},
+      {"speed", stepping_wall > 0 ? robot.time_s() / stepping_wall : 0.0},
+      {"released_at_s", recorder.released_at_s()},
+      {"speed_after_release", recorder.SpeedAfterRelease(robot.time_s())},
+      {"lockstep_forced_steps", c.lockstep_forced},
+      {"realtime_overruns", runner.counters().overruns},
+      {"late_steps", runner.counters().late_steps},
+      {"dropped_steps", runner.counters().dropped_steps},
+      {"stale_answers", runner.bus().stale_answers()},
+      {"superseded_syncs", superseded_syncs},
+      {"step_lateness", Histogram(runner.step_lateness())},
+      {"step_time", Histogram(runner.step_time())},
+      {"bus_gap", Histogram(runner.bus().gap())},
+      {"bus_poll_time", Histogram(runner.bus().poll_time())},
+      {"sync_phase_us", o.robot.sync_phase_ns >= 0
+                            ? Json(1e-3 * static_cast<double>(o.robot.sync_phase_ns))
+                            : Json(nullptr)},
+      {"sync_phase_error", Histogram(runner.sync_phase_error())},
+      {"stepping_thread", {{"fifo", t.stepping.fifo},
+                           {"priority", t.stepping.fifo ? t.stepping_cfg.priority : 0},
+                           {"cpu", t.stepping.pinned ? t.stepping_cfg.cpu : -1},
+                           {"memory_locked", t.stepping.locked}}},
+      {"bus_thread", {{"enabled", !o.lockstep && o.bus_thread},
+                      {"fifo", t.bus.fifo},
+                      {"priority", t.bus.fifo ? t.bus_cfg.priority : 0},
+                      {"cpu", t.bus.pinned ? t.bus_cfg.cpu : -1}}},
+      {"stalls", o.stalls.size()},
+      {"faults_injected", c.faults_injected},
+      {"lcm_truth_published", truth_published}};
+  AddBoards(robot.emulator(), &s);
+  Json faults = Json::array();
+  for (const sim::FaultSpec& f : robot.faults())
+    faults.push_back({{"spec", f.text}, {"t_s", f.t_s}, {"kind", sim::ToString(f.kind)},
+                      {"injected", robot.time_s() + 1e-9 >= f.t_s}});
+  s["faults"] = std::move(faults);
+  return s;
+}
+
+int Run(const Options& o) {
+  using namespace hyq;
+  const hal::HalConfig cfg = LoadConfig(o);
+  const dynamics::Model model = dynamics::LoadModelFromUrdf(o.urdf);
+  if (!o.write_model.empty()) return WriteModel(o, cfg, model);
+  const Channels channels = OpenChannels(o, cfg);
+  sim::SimulatedRobot robot(model, cfg, channels.raw, o.robot);
   if (!o.quiet && o.robot.profile.name != "ideal")
     std::fprintf(stderr, "%s: plant profile %s\n", kTool, o.robot.profile.Json().c_str());
   for (const std::string& f : o.faults) {
@@ -473,224 +748,32 @@ int Run(const Options& o) {
       return 2;
     }
   }
-
-  std::ofstream truth;
-  if (!o.truth.empty()) {
-    truth.open(o.truth);
-    if (!truth) throw std::runtime_error("--truth: cannot write '" + o.truth + "'");
-    truth.precision(9);
-    truth << "t,x,y,z,qw,qx,qy,qz";
-    for (const char* p : {"q_", "qd_", "tau_"})
-      for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << p << hal::JointName(j);
-    for (const char* leg : {"lf", "rf", "lh", "rh"})
-      truth << ',' << leg << "_fx," << leg << "_fy," << leg << "_fz," << leg << "_touching";
-    truth << ",body_touching,holding";
-    for (const char* leg : {"lf", "rf", "lh", "rh"}) truth << ',' << leg << "_mu";
-    truth << '\n';
-  }
-  std::unique_ptr<TruthPublisher> truth_lcm;
-  if (!o.lcm_truth_url.empty()) truth_lcm = std::make_unique<TruthPublisher>(o.lcm_truth_url);
-  hyq_lcm::lcmt_hyq_sim_truth truth_msg{};
-  double first_step_wall = 0, last_step_wall = 0, release_wall = 0, release_t = 0;
-  double next_progress = 1.0;
-  std::vector<bool> stalled(o.stalls.size(), false);
-  robot.SetStepObserver([&](const sim::SimulatedRobot& r) {
-    for (std::size_t i = 0; i < o.stalls.size(); ++i)
-      if (!stalled[i] && r.time_s() + 1e-9 >= o.stalls[i].first) {
-        stalled[i] = true;  // the stepping thread stops, as on a preempted core
-        const auto ns = static_cast<long long>(o.stalls[i].second * 1e6);
-        const timespec d{static_cast<time_t>(ns / 1'000'000'000), static_cast<long>(ns % 1'000'000'000)};
-        nanosleep(&d, nullptr);
-      }
-    last_step_wall = WallS();
-    if (r.counters().steps == 1) first_step_wall = last_step_wall;
-    if (release_wall == 0 && !r.holding()) {
-      release_wall = last_step_wall;
-      release_t = r.time_s();
-    }
-    if (truth.is_open() && r.counters().steps % static_cast<std::uint64_t>(o.truth_every) == 0) {
-      const dynamics::VectorQ q = r.plant().q();
-      const dynamics::VectorV v = r.plant().v();
-      truth << r.time_s();
-      for (int i = 0; i < 7; ++i) truth << ',' << q(i);
-      for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << q(7 + j);
-      for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << v(6 + j);
-      for (int j = 0; j < hal::kNumJoints; ++j) truth << ',' << r.applied_torque_Nm()(j);
-      for (const sim::FootContact& c : r.plant().FootContacts())
-        truth << ',' << c.force_W.x() << ',' << c.force_W.y() << ',' << c.force_W.z() << ','
-              << (c.touching ? 1 : 0);
-      truth << ',' << (r.plant().BodyTouchesGround() ? 1 : 0) << ',' << (r.holding() ? 1 : 0);
-      for (int f = 0; f < 4; ++f) truth << ',' << r.plant().foot_friction(f);
-      truth << '\n';
-    }
-    if (truth_lcm && r.counters().steps % static_cast<std::uint64_t>(o.lcm_truth_every) == 0) {
-      FillTruth(r, &truth_msg);
-      truth_lcm->Offer(truth_msg);
-    }
-    if (!o.quiet && r.time_s() + 1e-9 >= next_progress) {
-      next_progress += 1.0;
-      const double wall = last_step_wall - first_step_wall;
-      std::fprintf(stderr, "%s: t %.1f s, base z %.3f m%s%s, %.2fx real time\n", kTool,
-                   r.time_s(), r.plant().q()(2), r.holding() ? ", held" : "",
-                   r.fell() ? ", FELL" : "", wall > 0 ? r.time_s() / wall : 0.0);
-    }
-  });
+  StepRecorder recorder(o);
+  robot.SetStepObserver([&recorder](const sim::SimulatedRobot& r) { recorder.OnStep(r); });
 
   signal(SIGINT, OnSignal);
   signal(SIGTERM, OnSignal);
-  servo::RealtimeReport rt, bus_rt;
-  servo::RealtimeConfig rtc, bus_rtc;
-  // the bus thread's CPU, resolved before the stepping thread pins itself (a thread inherits
-  // its creator's affinity: unpinned, it gets the process's whole set back)
-  cpu_set_t all_cpus;
-  CPU_ZERO(&all_cpus);
-  const bool have_cpus = sched_getaffinity(0, sizeof all_cpus, &all_cpus) == 0;
-  bus_rtc.cpu = servo::ResolveCpu(o.bus_cpu, true, -1);
-  if (!o.lockstep && o.rt_priority > 0) {
-    rtc.priority = o.rt_priority;
-    rtc.cpu = servo::ResolveCpu(o.cpu, true, 0);
-    rt = servo::SetUpRealtimeThread(rtc);
-    for (const std::string& w : rt.warnings) std::fprintf(stderr, "%s: warning: %s\n", kTool, w.c_str());
-    if (!o.quiet)
-      std::fprintf(stderr, "%s: stepping thread %s, %s, memory %s\n", kTool,
-                   rt.fifo ? ("SCHED_FIFO " + std::to_string(rtc.priority)).c_str() : "SCHED_OTHER",
-                   rt.pinned ? ("on CPU " + std::to_string(rtc.cpu)).c_str() : "not pinned",
-                   rt.locked ? "locked" : "not locked");
-  }
+  Threads threads;
+  SetUpSteppingThread(o, &threads);
   const double start_wall = WallS();
+  sim::RealtimeRunner runner(&robot);
   if (o.lockstep) (void)robot.RunLockStep(g_stop, o.duration_s);
-  else {
-    sim::BusThreadConfig bus;
-    bus.enabled = o.bus_thread;
-    bus.setup = [&] {
-      if (bus_rtc.cpu == servo::kNoCpu && have_cpus)
-        (void)sched_setaffinity(0, sizeof all_cpus, &all_cpus);
-      if (o.bus_priority <= 0) {
-        if (bus_rtc.cpu != servo::kNoCpu) {
-          cpu_set_t one;
-          CPU_ZERO(&one);
-          CPU_SET(bus_rtc.cpu, &one);
-          bus_rt.pinned = sched_setaffinity(0, sizeof one, &one) == 0;
-        }
-        return;
-      }
-      bus_rtc.priority = o.bus_priority;
-      bus_rtc.prefault_stack_kib = 64;
-      bus_rt = servo::SetUpRealtimeThread(bus_rtc);
-      for (const std::string& w : bus_rt.warnings)
-        std::fprintf(stderr, "%s: warning: bus thread: %s\n", kTool, w.c_str());
-      if (!o.quiet)
-        std::fprintf(stderr, "%s: bus thread %s, %s\n", kTool,
-                     bus_rt.fifo ? ("SCHED_FIFO " + std::to_string(bus_rtc.priority)).c_str() : "SCHED_OTHER",
-                     bus_rt.pinned ? ("on CPU " + std::to_string(bus_rtc.cpu)).c_str() : "not pinned");
-    };
-    (void)robot.RunRealTime(g_stop, o.duration_s, bus);
-  }
-  const double end_wall = WallS();
-  if (truth.is_open()) truth.close();
-  const std::uint64_t truth_published = truth_lcm ? truth_lcm->published() : 0;
-  truth_lcm.reset();
+  else (void)runner.Run(g_stop, o.duration_s, BusThread(o, &threads));
+  const double wall_s = WallS() - start_wall;
+  const std::uint64_t truth_published = recorder.Finish();
 
-  const auto& c = robot.counters();
-  // the boards' SYNCs left unanswered because a newer one waited (real time, behind)
-  std::uint64_t superseded_syncs = 0;
-  for (std::size_t b = 0; b < cfg.buses.size(); ++b)
-    superseded_syncs += robot.emulator().counters(static_cast<int>(b)).superseded_syncs;
-  const double stepping_wall = last_step_wall - first_step_wall;
-  const double speed = stepping_wall > 0 ? robot.time_s() / stepping_wall : 0.0;
   if (!o.summary.empty()) {
     std::ofstream s(o.summary);
     if (!s) throw std::runtime_error("--summary: cannot write '" + o.summary + "'");
-    s.precision(9);
-    s << "{\n  \"mode\": \"" << (o.lockstep ? "lockstep" : "realtime") << "\",\n"
-      << "  \"profile\": " << o.robot.profile.Json() << ",\n"
-      << "  \"simulated_time_s\": " << robot.time_s() << ",\n"
-      << "  \"steps\": " << c.steps << ",\n  \"held_steps\": " << c.held_steps << ",\n"
-      << "  \"fell\": " << (robot.fell() ? "true" : "false") << ",\n"
-      << "  \"fell_at_s\": " << (robot.fell() ? robot.fell_at_s() : 0.0) << ",\n"
-      << "  \"min_base_height_m\": " << robot.min_base_height_m() << ",\n"
-      << "  \"max_descent_speed_m_s\": " << robot.max_descent_speed_m_s() << ",\n"
-      << "  \"sat_down\": " << (robot.sat_down() ? "true" : "false") << ",\n"
-      << "  \"sat_down_at_s\": " << (robot.sat_down() ? robot.sat_down_at_s() : 0.0) << ",\n"
-      << "  \"contact_speed_m_s\": " << robot.contact_speed_m_s() << ",\n"
-      << "  \"syncs_per_bus\": {";
-    for (std::size_t b = 0; b < cfg.buses.size(); ++b)
-      s << (b ? ", " : "") << JsonString(cfg.buses[b].name) << ": " << c.syncs[b];
-    s << "},\n  \"wall_s\": " << end_wall - start_wall << ",\n"
-      << "  \"stepping_wall_s\": " << stepping_wall << ",\n"
-      << "  \"speed\": " << speed << ",\n"
-      << "  \"released_at_s\": " << release_t << ",\n"
-      << "  \"speed_after_release\": "
-      << (last_step_wall > release_wall && release_wall > 0
-              ? (robot.time_s() - release_t) / (last_step_wall - release_wall)
-              : 0.0)
-      << ",\n"
-      << "  \"lockstep_forced_steps\": " << c.lockstep_forced << ",\n"
-      << "  \"realtime_overruns\": " << c.realtime_overruns << ",\n"
-      << "  \"late_steps\": " << c.late_steps << ",\n"
-      << "  \"dropped_steps\": " << c.dropped_steps << ",\n"
-      << "  \"stale_answers\": " << c.stale_answers << ",\n"
-      << "  \"superseded_syncs\": " << superseded_syncs << ",\n";
-    auto hist = [&](const char* key, const servo::LatencyHistogram& h) {
-      s << "  \"" << key << "\": {\"count\": " << h.count() << ", \"p50_us\": "
-        << 1e-3 * static_cast<double>(h.Percentile(0.5)) << ", \"p99_us\": "
-        << 1e-3 * static_cast<double>(h.Percentile(0.99)) << ", \"p999_us\": "
-        << 1e-3 * static_cast<double>(h.Percentile(0.999)) << ", \"max_us\": "
-        << 1e-3 * static_cast<double>(h.max_ns()) << "},\n";
-    };
-    hist("step_lateness", robot.step_lateness());
-    hist("step_time", robot.step_time());
-    hist("bus_gap", robot.bus_gap());
-    hist("bus_poll_time", robot.bus_poll_time());
-    s << "  \"sync_phase_us\": ";
-    if (o.robot.sync_phase_ns >= 0) s << 1e-3 * static_cast<double>(o.robot.sync_phase_ns) << ",\n";
-    else s << "null,\n";
-    hist("sync_phase_error", robot.sync_phase_error());
-    s << "  \"stepping_thread\": {\"fifo\": " << (rt.fifo ? "true" : "false")
-      << ", \"priority\": " << (rt.fifo ? rtc.priority : 0)
-      << ", \"cpu\": " << (rt.pinned ? rtc.cpu : -1)
-      << ", \"memory_locked\": " << (rt.locked ? "true" : "false") << "},\n"
-      << "  \"bus_thread\": {\"enabled\": " << (!o.lockstep && o.bus_thread ? "true" : "false")
-      << ", \"fifo\": " << (bus_rt.fifo ? "true" : "false")
-      << ", \"priority\": " << (bus_rt.fifo ? bus_rtc.priority : 0)
-      << ", \"cpu\": " << (bus_rt.pinned ? bus_rtc.cpu : -1) << "},\n"
-      << "  \"stalls\": " << o.stalls.size() << ",\n"
-      << "  \"faults_injected\": " << c.faults_injected << ",\n"
-      << "  \"lcm_truth_published\": " << truth_published << ",\n";
-    // the boards at exit: their set-points, and whether they tripped on their own timer (a
-    // silent master) and how long after the last SYNC / set-point
-    int tripped = 0;
-    double max_trip_delay_ms = 0.0, max_abs_setpoint_Nm = 0.0;
-    s << "  \"boards\": [";
-    for (int j = 0; j < hal::kNumJoints; ++j) {
-      const hal::Emulator& e = robot.emulator();
-      const bool trip = e.setpoint_trip_ns(j) >= 0;
-      const double delay_ms = 1e-6 * static_cast<double>(e.setpoint_trip_delay_ns(j));
-      tripped += trip ? 1 : 0;
-      if (trip) max_trip_delay_ms = std::max(max_trip_delay_ms, delay_ms);
-      max_abs_setpoint_Nm = std::max(max_abs_setpoint_Nm, std::abs(e.torque_setpoint_Nm(j)));
-      s << (j ? ", " : "") << "{\"joint\": " << JsonString(std::string(hal::JointName(j)))
-        << ", \"setpoint_Nm\": " << e.torque_setpoint_Nm(j)
-        << ", \"outputs_enabled\": " << (e.outputs_enabled(j) ? "true" : "false")
-        << ", \"tripped\": " << (trip ? "true" : "false")
-        << ", \"trip_delay_ms\": " << (trip ? delay_ms : 0.0) << "}";
-    }
-    s << "],\n  \"boards_tripped\": " << tripped << ",\n"
-      << "  \"max_trip_delay_ms\": " << max_trip_delay_ms << ",\n"
-      << "  \"max_abs_setpoint_Nm\": " << max_abs_setpoint_Nm << ",\n  \"faults\": [";
-    for (std::size_t i = 0; i < robot.faults().size(); ++i) {
-      const sim::FaultSpec& f = robot.faults()[i];
-      s << (i ? ", " : "") << "{\"spec\": " << JsonString(f.text) << ", \"t_s\": " << f.t_s
-        << ", \"kind\": \"" << sim::ToString(f.kind) << "\", \"injected\": "
-        << (robot.time_s() + 1e-9 >= f.t_s ? "true" : "false") << "}";
-    }
-    s << "]\n}\n";
+    s << Summary(o, cfg, robot, runner, recorder, threads, wall_s, truth_published).dump(2) << '\n';
   }
-  if (!o.quiet)
+  if (!o.quiet) {
+    const double stepping_wall = recorder.stepping_wall_s();
     std::fprintf(stderr, "%s: %.3f simulated s in %llu steps, %s, min base height %.3f m, %.2fx real time\n",
-                 kTool, robot.time_s(), static_cast<unsigned long long>(c.steps),
+                 kTool, robot.time_s(), static_cast<unsigned long long>(robot.counters().steps),
                  robot.fell() ? "fell" : robot.sat_down() ? "sat down" : "did not fall",
-                 robot.min_base_height_m(), speed);
+                 robot.min_base_height_m(), stepping_wall > 0 ? robot.time_s() / stepping_wall : 0.0);
+  }
   return 0;
 }
 

@@ -1,6 +1,6 @@
 // hyq-teleop: steers the trot from a terminal (docs/steering.md). Keys change the commanded base
 // velocity in steps within limits; the changes are signed set-velocity commands
-// (lcmt_hyq_command KIND_SET_VELOCITY in an lcmt_hyq_signed_command, servo/telemetry/command_auth.h)
+// (lcmt_hyq_command KIND_SET_VELOCITY in an lcmt_hyq_signed_command, servo/command/command_auth.h)
 // sent at a bounded rate; the screen shows the commanded velocity and the estimated one from
 // HYQ_BASE_STATE. The terminal is in raw mode (termios) while it runs and restored on every exit.
 #include <fcntl.h>
@@ -17,6 +17,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -25,7 +26,8 @@
 
 #include "hyq_lcm/lcmt_hyq_base_state.hpp"
 #include "hyq_lcm/lcmt_hyq_command.hpp"
-#include "servo/telemetry/command_auth.h"
+#include "servo/command/command_auth.h"
+#include "tools/cli/command_line.h"
 
 namespace {
 
@@ -63,25 +65,18 @@ options:
 using Clock = std::chrono::steady_clock;
 using Vec3 = std::array<double, 3>;
 
-[[noreturn]] void Fail(const std::string& what) {
-  std::fprintf(stderr, "hyq-teleop: %s\n(hyq-teleop --help for usage)\n", what.c_str());
-  std::exit(2);
-}
-
-Vec3 ParseTriple(const std::string& option, const char* text, double lo, double hi) {
+// The flag's value as three numbers VX,VY,WZ, each in [lo, hi].
+Vec3 Triple(hyq::cli::CommandLine& cl, double lo, double hi) {
+  const std::string text = cl.Value();
+  const std::vector<std::string> parts = hyq::cli::Split(text, ',');
+  char expected[80];
+  std::snprintf(expected, sizeof expected, "3 numbers VX,VY,WZ in [%g, %g]", lo, hi);
   Vec3 v{};
-  const char* p = text;
+  if (parts.size() != 3) cl.BadValue(expected, text);
   for (std::size_t i = 0; i < 3; ++i) {
-    char* end = nullptr;
-    errno = 0;
-    v[i] = std::strtod(p, &end);
-    const char want = i < 2 ? ',' : '\0';
-    if (end == p || *end != want || errno == ERANGE || !std::isfinite(v[i]) || v[i] < lo || v[i] > hi) {
-      char range[64];
-      std::snprintf(range, sizeof range, "[%g, %g]", lo, hi);
-      Fail(option + ": expected 3 numbers VX,VY,WZ in " + range + ", found '" + text + "'");
-    }
-    p = end + 1;
+    const std::optional<double> x = hyq::cli::ParseNumber(parts[i]);
+    if (!x || *x < lo || *x > hi) cl.BadValue(expected, text);
+    v[i] = *x;
   }
   return v;
 }
@@ -101,15 +96,16 @@ void Restore() {
 
 void OnSignal(int) { g_stop = 1; }
 
-void EnterRaw() {
-  if (!isatty(STDIN_FILENO)) Fail("stdin: expected a terminal, found none (run it in a terminal)");
-  if (tcgetattr(STDIN_FILENO, &g_saved) != 0) Fail(std::string("tcgetattr: ") + std::strerror(errno));
+// A terminal that is missing or refuses raw mode is a usage error (exit 2), as before any key is read.
+void EnterRaw(const hyq::cli::CommandLine& cl) {
+  if (!isatty(STDIN_FILENO)) cl.Fail("stdin: expected a terminal, found none (run it in a terminal)");
+  if (tcgetattr(STDIN_FILENO, &g_saved) != 0) cl.Fail(std::string("tcgetattr: ") + std::strerror(errno));
   termios raw = g_saved;
   raw.c_lflag &= ~static_cast<tcflag_t>(ICANON | ECHO | ISIG | IEXTEN);
   raw.c_iflag &= ~static_cast<tcflag_t>(IXON | ICRNL);
   raw.c_cc[VMIN] = 0;
   raw.c_cc[VTIME] = 0;
-  if (tcsetattr(STDIN_FILENO, TCSAFLUSH, &raw) != 0) Fail(std::string("tcsetattr: ") + std::strerror(errno));
+  if (tcsetattr(STDIN_FILENO, TCSAFLUSH, &raw) != 0) cl.Fail(std::string("tcsetattr: ") + std::strerror(errno));
   g_raw = true;
   std::atexit(Restore);
   const char enter[] = "\x1b[?1049h\x1b[?25l";  // alternate screen, no cursor
@@ -201,49 +197,36 @@ int main(int argc, char** argv) {
   std::string sender = hyq::servo::DefaultCommandSender();
   Vec3 max{0.4, 0.2, 0.5}, step{0.05, 0.05, 0.1};
   double rate_hz = 4.0;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    const auto value = [&](const char* name) -> const char* {
-      if (i + 1 >= argc) Fail(std::string(name) + ": expected a value, found none");
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") {
-      std::fputs(kUsage, stdout);
-      return 0;
-    } else if (a == "--key") {
-      key_file = value("--key");
-    } else if (a == "--lcm-url") {
-      url = value("--lcm-url");
-    } else if (a == "--sender") {
-      sender = value("--sender");
-      if (sender.empty() || sender.size() > 63)
-        Fail("--sender: expected 1..63 bytes, found " + std::to_string(sender.size()));
-    } else if (a == "--channel") {
-      channel = value("--channel");
-    } else if (a == "--state-channel") {
-      state_channel = value("--state-channel");
-    } else if (a == "--max") {
-      max = ParseTriple("--max", value("--max"), 0.0, 2.0);
-    } else if (a == "--step") {
-      step = ParseTriple("--step", value("--step"), 1e-3, 1.0);
-    } else if (a == "--rate") {
-      const char* text = value("--rate");
-      char* end = nullptr;
-      rate_hz = std::strtod(text, &end);
-      if (end == text || *end != '\0' || !(rate_hz >= 0.2 && rate_hz <= 20.0))
-        Fail(std::string("--rate: expected a number in [0.2, 20] Hz, found '") + text + "'");
+  hyq::cli::CommandLine cl(argc, argv, "hyq-teleop", kUsage);
+  while (cl.Next()) {
+    if (cl.Flag("--key")) {
+      key_file = cl.Value();
+    } else if (cl.Flag("--lcm-url")) {
+      url = cl.Value();
+    } else if (cl.Flag("--sender")) {
+      sender = cl.Text(1, hyq::servo::kMaxSenderBytes);
+    } else if (cl.Flag("--channel")) {
+      channel = cl.Value();
+    } else if (cl.Flag("--state-channel")) {
+      state_channel = cl.Value();
+    } else if (cl.Flag("--max")) {
+      max = Triple(cl, 0.0, 2.0);
+    } else if (cl.Flag("--step")) {
+      step = Triple(cl, 1e-3, 1.0);
+    } else if (cl.Flag("--rate")) {
+      rate_hz = cl.Number(0.2, 20.0, "a number in [0.2, 20] Hz");
     } else {
-      Fail("unknown argument '" + std::string(a) + "'");
+      cl.Unknown();
     }
   }
 
   hyq::servo::CommandKey key;
-  try {
-    key = hyq::servo::LoadCommandKey(key_file);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "hyq-teleop: %s\n", e.what());
-    return 1;
-  }
+  if (const int status = hyq::cli::Run(cl.tool(), [&] {
+        key = hyq::servo::LoadCommandKey(key_file);
+        return 0;
+      });
+      status != 0)
+    return status;
   lcm::LCM lcm(url);
   if (!lcm.good()) {
     std::fprintf(stderr, "hyq-teleop: cannot open LCM on '%s'\n", url.c_str());
@@ -258,7 +241,7 @@ int main(int argc, char** argv) {
   sigaction(SIGTERM, &sa, nullptr);
   sigaction(SIGHUP, &sa, nullptr);
   sigaction(SIGINT, &sa, nullptr);
-  EnterRaw();
+  EnterRaw(cl);
 
   Vec3 commanded{}, sent{};
   bool any_sent = false;

@@ -1,4 +1,4 @@
-// hyq-viewer: the robot's telemetry in a browser (issue #19). A read-only bridge from LCM (or an
+// hyq-viewer: the robot's telemetry in a browser. A read-only bridge from LCM (or an
 // lcm-logger file) to a WebSocket: it serves one page (three.js + uPlot, bundled at build time)
 // and streams the states decimated to the page's rate, every event, and hyq-sim's truth.
 // docs/viewer.md describes the page and this command line.
@@ -31,6 +31,7 @@
 #include <boost/asio/steady_timer.hpp>
 #include <lcm/lcm-cpp.hpp>
 
+#include "tools/cli/command_line.h"
 #include "tools/hyq-viewer/log_player.h"
 #include "tools/hyq-viewer/telemetry_json.h"
 #include "tools/hyq-viewer/web_server.h"
@@ -54,91 +55,73 @@ struct Options {
   bool quiet = false;
 };
 
-[[noreturn]] void Usage(int code) {
-  std::fprintf(code == 0 ? stdout : stderr,
-               "usage: hyq-viewer [--bind ADDR] [--port N] [--lcm-url URL [--lcm-netns PATH] | --log FILE [--paused]]\n"
-               "                  [--rate-hz HZ] [--web-dir DIR] [--urdf FILE] [--quiet]\n"
-               "HyQ's telemetry in a browser, read-only: serves a page (3D robot, contacts, friction\n"
-               "pyramids, slips, mode and events, plots) on http://ADDR:N/ and streams HYQ_JOINT_STATE,\n"
-               "HYQ_BASE_STATE, HYQ_CONTACT, HYQ_FRICTION, HYQ_TIMING, HYQ_JOINT_TORQUE (latest, at HZ),\n"
-               "HYQ_EVENT (all) and HYQ_SIM_TRUTH (hyq-sim --lcm-truth) to it over a WebSocket.\n"
-               "The page cannot command the robot. docs/viewer.md.\n"
-               "  --bind ADDR     address to listen on (default 127.0.0.1: this machine only)\n"
-               "  --port N        TCP port, 0..65535 (default 8087; 0: any free port)\n"
-               "  --lcm-url URL   LCM to subscribe to (default %s)\n"
-               "  --lcm-netns PATH  subscribe inside that network namespace (e.g. /proc/PID/ns/net of\n"
-               "                  scripts/hil.sh's hyq-sim) while serving the page in this one; root\n"
-               "  --log FILE      play an lcm-logger file instead (pause, resume, seek, speed on the page)\n"
-               "  --paused        with --log: start paused at the beginning\n"
-               "  --rate-hz HZ    frames per second sent to the page, 1..120 (default 30)\n"
-               "  --web-dir DIR   the bundled page (default %s)\n"
-               "  --urdf FILE     robot model drawn by the page (default %s)\n"
-               "  --quiet         no status line on stderr\n",
-               kDefaultLcmUrl, HYQ_VIEWER_WEB_DIR, HYQ_DEFAULT_URDF);
-  std::exit(code);
-}
-
-[[noreturn]] void Bad(std::string_view flag, std::string_view expected, std::string_view found) {
-  std::fprintf(stderr, "%s: %.*s: expected %.*s, found '%.*s'\n", kTool, static_cast<int>(flag.size()),
-               flag.data(), static_cast<int>(expected.size()), expected.data(),
-               static_cast<int>(found.size()), found.data());
-  std::exit(2);
-}
-
-double Number(std::string_view flag, const std::string& v, double min, double max, std::string_view what) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end != '\0' || !std::isfinite(x) || x < min || x > max) Bad(flag, what, v);
-  return x;
+std::string Help() {
+  return std::string() +
+    "usage: hyq-viewer [--bind ADDR] [--port N] [--lcm-url URL [--lcm-netns PATH] | --log FILE [--paused]]\n"
+    "                  [--rate-hz HZ] [--web-dir DIR] [--urdf FILE] [--quiet]\n"
+    "HyQ's telemetry in a browser, read-only: serves a page (3D robot, contacts, friction\n"
+    "pyramids, slips, mode and events, plots) on http://ADDR:N/ and streams HYQ_JOINT_STATE,\n"
+    "HYQ_BASE_STATE, HYQ_CONTACT, HYQ_FRICTION, HYQ_TIMING, HYQ_JOINT_TORQUE (latest, at HZ),\n"
+    "HYQ_EVENT (all) and HYQ_SIM_TRUTH (hyq-sim --lcm-truth) to it over a WebSocket.\n"
+    "The page cannot command the robot. docs/viewer.md.\n"
+    "  --bind ADDR     address to listen on (default 127.0.0.1: this machine only)\n"
+    "  --port N        TCP port, 0..65535 (default 8087; 0: any free port)\n"
+    "  --lcm-url URL   LCM to subscribe to (default " + kDefaultLcmUrl + ")\n"
+    "  --lcm-netns PATH  subscribe inside that network namespace (e.g. /proc/PID/ns/net of\n"
+    "                  scripts/hil.sh's hyq-sim) while serving the page in this one; root\n"
+    "  --log FILE      play an lcm-logger file instead (pause, resume, seek, speed on the page)\n"
+    "  --paused        with --log: start paused at the beginning\n"
+    "  --rate-hz HZ    frames per second sent to the page, 1..120 (default 30)\n"
+    "  --web-dir DIR   the bundled page (default " HYQ_VIEWER_WEB_DIR ")\n"
+    "  --urdf FILE     robot model drawn by the page (default " HYQ_DEFAULT_URDF ")\n"
+    "  --quiet         no status line on stderr\n";
 }
 
 Options Parse(int argc, char** argv) {
   Options o;
   bool lcm_url_given = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) Bad(a, "a value", "end of arguments");
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") Usage(0);
-    else if (a == "--bind") {
-      o.bind = value();
+  hyq::cli::CommandLine cl(argc, argv, kTool, Help());
+  while (cl.Next()) {
+    if (cl.Flag("--bind")) {
+      o.bind = cl.Value();
       boost::system::error_code ec;
       (void)asio::ip::make_address(o.bind, ec);
-      if (ec) Bad(a, "an IPv4 or IPv6 address (127.0.0.1, 0.0.0.0, ::1)", o.bind);
-    } else if (a == "--port") {
-      const std::string v = value();
-      const double p = Number(a, v, 0, 65535, "a port number 0..65535");
-      if (p != std::floor(p)) Bad(a, "a port number 0..65535", v);
-      o.port = static_cast<int>(p);
-    } else if (a == "--lcm-url") {
-      o.lcm_url = value();
+      if (ec) cl.BadValue("an IPv4 or IPv6 address (127.0.0.1, 0.0.0.0, ::1)", o.bind);
+    } else if (cl.Flag("--port")) {
+      o.port = static_cast<int>(cl.Integer(0, 65535, "a port number 0..65535"));
+    } else if (cl.Flag("--lcm-url")) {
+      o.lcm_url = cl.Value();
       lcm_url_given = true;
-      if (o.lcm_url.empty()) Bad(a, "an LCM URL (udpm://239.255.76.67:7667?ttl=0)", o.lcm_url);
-    } else if (a == "--lcm-netns") {
-      o.lcm_netns = value();
-      if (!std::filesystem::exists(o.lcm_netns)) Bad(a, "a network namespace file (/proc/PID/ns/net)", o.lcm_netns);
-    } else if (a == "--log") {
-      o.log = value();
-      if (!std::filesystem::is_regular_file(o.log)) Bad(a, "a readable lcm-logger file", o.log);
-    } else if (a == "--paused") o.paused = true;
-    else if (a == "--rate-hz") o.rate_hz = Number(a, value(), 1, 120, "frames per second 1..120");
-    else if (a == "--web-dir") {
-      o.web_dir = value();
-      if (!std::filesystem::is_directory(o.web_dir)) Bad(a, "a directory holding index.html", o.web_dir);
-    } else if (a == "--urdf") {
-      o.urdf = value();
-      if (!std::filesystem::is_regular_file(o.urdf)) Bad(a, "a readable URDF file", o.urdf);
-    } else if (a == "--quiet") o.quiet = true;
-    else {
-      std::fprintf(stderr, "%s: unknown option '%s' (--help lists them)\n", kTool, argv[i]);
-      std::exit(2);
+      if (o.lcm_url.empty()) cl.BadValue("an LCM URL (udpm://239.255.76.67:7667?ttl=0)", o.lcm_url);
+    } else if (cl.Flag("--lcm-netns")) {
+      o.lcm_netns = cl.Value();
+      if (!std::filesystem::exists(o.lcm_netns))
+        cl.BadValue("a network namespace file (/proc/PID/ns/net)", o.lcm_netns);
+    } else if (cl.Flag("--log")) {
+      o.log = cl.Value();
+      if (!std::filesystem::is_regular_file(o.log)) cl.BadValue("a readable lcm-logger file", o.log);
+    } else if (cl.Flag("--paused")) {
+      o.paused = true;
+    } else if (cl.Flag("--rate-hz")) {
+      o.rate_hz = cl.Number(1, 120, "frames per second 1..120");
+    } else if (cl.Flag("--web-dir")) {
+      o.web_dir = cl.Value();
+      if (!std::filesystem::is_directory(o.web_dir))
+        cl.BadValue("a directory holding index.html", o.web_dir);
+    } else if (cl.Flag("--urdf")) {
+      o.urdf = cl.Value();
+      if (!std::filesystem::is_regular_file(o.urdf)) cl.BadValue("a readable URDF file", o.urdf);
+    } else if (cl.Flag("--quiet")) {
+      o.quiet = true;
+    } else {
+      cl.Unknown();
     }
   }
-  if (lcm_url_given && !o.log.empty()) Bad("--lcm-url", "either --lcm-url or --log, not both", o.lcm_url);
-  if (!o.lcm_netns.empty() && !o.log.empty()) Bad("--lcm-netns", "live LCM, not --log", o.lcm_netns);
-  if (o.paused && o.log.empty()) Bad("--paused", "--log FILE with it", "--paused alone");
+  if (lcm_url_given && !o.log.empty())
+    cl.Bad("--lcm-url", "either --lcm-url or --log, not both", o.lcm_url);
+  if (!o.lcm_netns.empty() && !o.log.empty())
+    cl.Bad("--lcm-netns", "live LCM, not --log", o.lcm_netns);
+  if (o.paused && o.log.empty()) cl.Bad("--paused", "--log FILE with it", "--paused alone");
   return o;
 }
 
@@ -272,10 +255,5 @@ int Run(const Options& o) {
 
 int main(int argc, char** argv) {
   const Options o = Parse(argc, argv);
-  try {
-    return Run(o);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s: %s\n", kTool, e.what());
-    return 1;
-  }
+  return hyq::cli::Run(kTool, [&] { return Run(o); });
 }

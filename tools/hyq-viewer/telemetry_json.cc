@@ -4,14 +4,6 @@
 #include <exception>
 #include <string_view>
 
-#include "hyq_lcm/lcmt_hyq_base_state.hpp"
-#include "hyq_lcm/lcmt_hyq_contact_state.hpp"
-#include "hyq_lcm/lcmt_hyq_event.hpp"
-#include "hyq_lcm/lcmt_hyq_friction_estimate.hpp"
-#include "hyq_lcm/lcmt_hyq_joint_state.hpp"
-#include "hyq_lcm/lcmt_hyq_joint_torque.hpp"
-#include "hyq_lcm/lcmt_hyq_servo_timing.hpp"
-#include "hyq_lcm/lcmt_hyq_sim_truth.hpp"
 #include "tools/hyq-lcm-export/csv_rows.h"
 
 namespace hyq::viewer {
@@ -22,25 +14,6 @@ using nlohmann::json;
 constexpr std::size_t kMaxEventsPerFrame = 256;
 constexpr std::size_t kSeenEventsKept = 4096;
 constexpr std::size_t kRecentEvents = 12;
-
-template <class T, std::size_t N>
-json Array(const T (&a)[N]) {
-  json out = json::array();
-  for (std::size_t i = 0; i < N; ++i) out.push_back(a[i]);
-  return out;
-}
-template <std::size_t N>
-json Bools(const int8_t (&a)[N]) {
-  json out = json::array();
-  for (std::size_t i = 0; i < N; ++i) out.push_back(a[i] != 0);
-  return out;
-}
-template <std::size_t N, std::size_t M>
-json Array2(const double (&a)[N][M]) {
-  json out = json::array();
-  for (std::size_t i = 0; i < N; ++i) out.push_back(Array(a[i]));
-  return out;
-}
 
 // decodes `data` as T: false when it is not exactly one well-formed T
 template <class T>
@@ -60,138 +33,85 @@ std::int64_t Fingerprint(std::span<const std::uint8_t> data) {
   return static_cast<std::int64_t>(h);
 }
 
-json ToJson(const hyq_lcm::lcmt_hyq_joint_state& m) {
-  return {{"kind", "joint"},
-          {"utime", m.utime},
-          {"cycle", m.cycle},
-          {"mode", m.mode},
-          {"mode_name", ModeName(m.mode)},
-          {"reference_time_s", m.reference_time_s},
-          {"q_rad", Array(m.q_rad)},
-          {"qd_rad_s", Array(m.qd_rad_s)},
-          {"q_ref_rad", Array(m.q_ref_rad)},
-          {"tau_measured_Nm", Array(m.tau_measured_Nm)},
-          {"tracking_error_rad", m.tracking_error_rad}};
-}
-json ToJson(const hyq_lcm::lcmt_hyq_base_state& m) {
-  return {{"kind", "base"},
-          {"utime", m.utime},
-          {"cycle", m.cycle},
-          {"position_m", Array(m.position_m)},
-          {"orientation_wxyz", Array(m.orientation_wxyz)},
-          {"velocity_m_s", Array(m.velocity_m_s)}};
-}
-json ToJson(const hyq_lcm::lcmt_hyq_contact_state& m) {
+// the values the page derives from a message's fields
+void AddDerived(const hyq_lcm::lcmt_hyq_joint_state& m, json* j) { (*j)["mode_name"] = ModeName(m.mode); }
+void AddDerived(const hyq_lcm::lcmt_hyq_contact_state& m, json* j) {
   int stance = 0;
   for (int f = 0; f < 4; ++f) stance += m.stance_estimated[f] != 0 ? 1 : 0;
-  return {{"kind", "contact"},
-          {"utime", m.utime},
-          {"cycle", m.cycle},
-          {"stance_estimated", Bools(m.stance_estimated)},
-          {"stance_reference", Bools(m.stance_reference)},
-          {"stance_count", stance},
-          {"mu", Array(m.mu)},
-          {"contact_force_N", Array2(m.contact_force_N)},
-          {"fallback", m.fallback},
-          {"stage1_solve_us", m.stage1_solve_us},
-          {"stage2_solve_us", m.stage2_solve_us},
-          {"qp_solve_us", m.stage1_solve_us + m.stage2_solve_us}};
+  (*j)["stance_count"] = stance;
+  (*j)["qp_solve_us"] = m.stage1_solve_us + m.stage2_solve_us;
 }
-json ToJson(const hyq_lcm::lcmt_hyq_friction_estimate& m) {
-  return {{"kind", "friction"},
-          {"utime", m.utime},
-          {"cycle", m.cycle},
-          {"enabled", m.enabled != 0},
-          {"mu_estimate", Array(m.mu_estimate)},
-          {"mu_control", Array(m.mu_control)},
-          {"force_N", Array2(m.force_N)},
-          {"loaded", Bools(m.loaded)},
-          {"slipping", Bools(m.slipping)},
-          {"slips", Array(m.slips)}};
+template <class T>
+void AddDerived(const T& /*m*/, json* /*j*/) {}
+
+// One type the page draws, under its "kind".
+struct Kind {
+  const char* kind;
+  std::int64_t fingerprint;
+  // a state: only the latest one is kept, and checked (no JSON) as it arrives; for a contact
+  // message the check also gives its QP time (µs). Null for an event: every one is kept.
+  bool (*check)(std::span<const std::uint8_t> data, double* qp_solve_us);
+  std::optional<json> (*to_json)(std::span<const std::uint8_t> data);
+};
+
+template <class T>
+bool Check(std::span<const std::uint8_t> data, double* /*qp_solve_us*/) {
+  T msg{};
+  return Decode(data, &msg);
 }
-json ToJson(const hyq_lcm::lcmt_hyq_servo_timing& m) {
-  return {{"kind", "timing"},
-          {"utime", m.utime},
-          {"cycle", m.cycle},
-          {"total_ns", m.total_ns},
-          {"control_ns", m.control_ns},
-          {"deadline_misses", m.deadline_misses},
-          {"skipped_cycles", m.skipped_cycles}};
-}
-json ToJson(const hyq_lcm::lcmt_hyq_joint_torque& m) {
-  return {{"kind", "torque"},
-          {"utime", m.utime},
-          {"cycle", m.cycle},
-          {"mode", m.mode},
-          {"controller", m.controller},
-          {"tau_command_Nm", Array(m.tau_command_Nm)}};
-}
-json ToJson(const hyq_lcm::lcmt_hyq_sim_truth& m) {
-  return {{"kind", "truth"},
-          {"utime", m.utime},
-          {"step", m.step},
-          {"sim_time_s", m.sim_time_s},
-          {"position_m", Array(m.position_m)},
-          {"orientation_wxyz", Array(m.orientation_wxyz)},
-          {"q_rad", Array(m.q_rad)},
-          {"contact_force_N", Array2(m.contact_force_N)},
-          {"touching", Bools(m.touching)},
-          {"mu", Array(m.mu)},
-          {"holding", m.holding != 0}};
-}
-json ToJson(const hyq_lcm::lcmt_hyq_event& m) {
-  // strings from the wire may be any bytes: keep them valid UTF-8 for the JSON encoder
-  auto text = [](const std::string& s) {
-    std::string out;
-    for (unsigned char c : s) out += (c >= 0x20 && c < 0x7f) ? static_cast<char>(c) : '?';
-    return out;
-  };
-  return {{"kind", "event"},
-          {"utime", m.utime},
-          {"cycle", m.cycle},
-          {"from_mode", m.from_mode},
-          {"to_mode", m.to_mode},
-          {"from_name", text(m.from_name)},
-          {"to_name", text(m.to_name)},
-          {"reason_code", m.reason_code},
-          {"reason", text(m.reason)},
-          {"joint", m.joint},
-          {"bus", m.bus},
-          {"detail", text(m.detail)}};
+template <>
+bool Check<hyq_lcm::lcmt_hyq_contact_state>(std::span<const std::uint8_t> data, double* qp_solve_us) {
+  hyq_lcm::lcmt_hyq_contact_state m{};
+  if (!Decode(data, &m)) return false;
+  *qp_solve_us = m.stage1_solve_us + m.stage2_solve_us;
+  return true;
 }
 
 template <class T>
-std::optional<json> Try(std::span<const std::uint8_t> data) {
+std::optional<json> Json(std::span<const std::uint8_t> data) {
   T msg{};
   if (!Decode(data, &msg)) return std::nullopt;
-  return ToJson(msg);
+  json j = ToJson(msg);
+  AddDerived(msg, &j);
+  return j;
+}
+
+// the generated decoder trusts the string lengths: hyq-lcm-export's checks go first
+std::optional<json> EventJson(std::span<const std::uint8_t> data) {
+  const lcm_export::RowType* type = lcm_export::FindRowType(data);
+  std::string unused;
+  if (type == nullptr || !lcm_export::RowCells(*type, data, &unused)) return std::nullopt;
+  return Json<hyq_lcm::lcmt_hyq_event>(data);
 }
 
 template <class T>
-const char* Check(std::span<const std::uint8_t> data, const char* kind) {
-  T msg{};
-  return Decode(data, &msg) ? kind : nullptr;
+Kind State(const char* kind) {
+  return {kind, T::getHash(), &Check<T>, &Json<T>};
+}
+
+const Kind* FindKind(std::span<const std::uint8_t> data) {
+  static const Kind kKinds[] = {
+      State<hyq_lcm::lcmt_hyq_joint_state>("joint"),
+      State<hyq_lcm::lcmt_hyq_base_state>("base"),
+      State<hyq_lcm::lcmt_hyq_contact_state>("contact"),
+      State<hyq_lcm::lcmt_hyq_friction_estimate>("friction"),
+      State<hyq_lcm::lcmt_hyq_servo_timing>("timing"),
+      State<hyq_lcm::lcmt_hyq_joint_torque>("torque"),
+      State<hyq_lcm::lcmt_hyq_sim_truth>("truth"),
+      {"event", hyq_lcm::lcmt_hyq_event::getHash(), nullptr, &EventJson},
+  };
+  if (data.size() < 8) return nullptr;
+  const std::int64_t h = Fingerprint(data);
+  for (const Kind& k : kKinds)
+    if (k.fingerprint == h) return &k;
+  return nullptr;
 }
 
 // the "kind" of a well-formed state message (cheap: no JSON), null for anything else; for a
 // contact message also its QP time (µs)
 const char* StateKind(std::span<const std::uint8_t> data, double* qp_solve_us) {
-  if (data.size() < 8) return nullptr;
-  const std::int64_t h = Fingerprint(data);
-  if (h == hyq_lcm::lcmt_hyq_joint_state::getHash()) return Check<hyq_lcm::lcmt_hyq_joint_state>(data, "joint");
-  if (h == hyq_lcm::lcmt_hyq_base_state::getHash()) return Check<hyq_lcm::lcmt_hyq_base_state>(data, "base");
-  if (h == hyq_lcm::lcmt_hyq_friction_estimate::getHash())
-    return Check<hyq_lcm::lcmt_hyq_friction_estimate>(data, "friction");
-  if (h == hyq_lcm::lcmt_hyq_servo_timing::getHash()) return Check<hyq_lcm::lcmt_hyq_servo_timing>(data, "timing");
-  if (h == hyq_lcm::lcmt_hyq_joint_torque::getHash()) return Check<hyq_lcm::lcmt_hyq_joint_torque>(data, "torque");
-  if (h == hyq_lcm::lcmt_hyq_sim_truth::getHash()) return Check<hyq_lcm::lcmt_hyq_sim_truth>(data, "truth");
-  if (h == hyq_lcm::lcmt_hyq_contact_state::getHash()) {
-    hyq_lcm::lcmt_hyq_contact_state m{};
-    if (!Decode(data, &m)) return nullptr;
-    *qp_solve_us = m.stage1_solve_us + m.stage2_solve_us;
-    return "contact";
-  }
-  return nullptr;
+  const Kind* k = FindKind(data);
+  return k != nullptr && k->check != nullptr && k->check(data, qp_solve_us) ? k->kind : nullptr;
 }
 
 }  // namespace
@@ -203,24 +123,11 @@ std::string ModeName(int mode) {
 }
 
 std::optional<json> DecodeMessage(std::span<const std::uint8_t> data) {
-  if (data.size() < 8) return std::nullopt;
-  const std::int64_t h = Fingerprint(data);
-  if (h == hyq_lcm::lcmt_hyq_joint_state::getHash()) return Try<hyq_lcm::lcmt_hyq_joint_state>(data);
-  if (h == hyq_lcm::lcmt_hyq_base_state::getHash()) return Try<hyq_lcm::lcmt_hyq_base_state>(data);
-  if (h == hyq_lcm::lcmt_hyq_contact_state::getHash()) return Try<hyq_lcm::lcmt_hyq_contact_state>(data);
-  if (h == hyq_lcm::lcmt_hyq_friction_estimate::getHash())
-    return Try<hyq_lcm::lcmt_hyq_friction_estimate>(data);
-  if (h == hyq_lcm::lcmt_hyq_servo_timing::getHash()) return Try<hyq_lcm::lcmt_hyq_servo_timing>(data);
-  if (h == hyq_lcm::lcmt_hyq_joint_torque::getHash()) return Try<hyq_lcm::lcmt_hyq_joint_torque>(data);
-  if (h == hyq_lcm::lcmt_hyq_sim_truth::getHash()) return Try<hyq_lcm::lcmt_hyq_sim_truth>(data);
-  if (h == hyq_lcm::lcmt_hyq_event::getHash()) {
-    // the generated decoder trusts the string lengths: hyq-lcm-export's checks go first
-    const lcm_export::RowType* type = lcm_export::FindRowType(data);
-    std::string unused;
-    if (type == nullptr || !lcm_export::RowCells(*type, data, &unused)) return std::nullopt;
-    return Try<hyq_lcm::lcmt_hyq_event>(data);
-  }
-  return std::nullopt;
+  const Kind* k = FindKind(data);
+  if (k == nullptr) return std::nullopt;
+  std::optional<json> out = k->to_json(data);
+  if (out) (*out)["kind"] = k->kind;
+  return out;
 }
 
 bool TelemetryModel::Feed(const std::string& channel, std::span<const std::uint8_t> data) {

@@ -1,0 +1,335 @@
+#include "sim/plant.h"
+
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <sstream>
+#include <stdexcept>
+#include <cstdlib>
+
+#include <Eigen/Geometry>
+#include <mujoco/mujoco.h>
+
+namespace hyq::sim {
+namespace {
+
+// Contact settings that give Coulomb friction (docs/simulation.md; DESIGN §7, measured): an
+// elliptic cone with a high impedance ratio, a stiff floor, the floor's friction used.
+constexpr const char* kFloorContact = "solref=\"0.005 1\" solimp=\"0.9 0.99 0.001\"";
+// A joint's end stop (the cylinder's or the rotary actuator's mechanical stop) as stiff as the
+// floor: with MuJoCo's default (solref 0.02) the trunk's weight, resting on folded knees after a
+// sit-down, pushed a knee 0.15 rad past its URDF range.
+constexpr const char* kJointStop = "solreflimit=\"0.005 1\"";
+
+std::string Vec(const Eigen::Vector3d& v) {
+  std::ostringstream s;
+  s.precision(17);
+  s << v.x() << ' ' << v.y() << ' ' << v.z();
+  return s.str();
+}
+
+std::string Quat(const Eigen::Matrix3d& R) {
+  const Eigen::Quaterniond q(R);
+  std::ostringstream s;
+  s.precision(17);
+  s << q.w() << ' ' << q.x() << ' ' << q.y() << ' ' << q.z();
+  return s.str();
+}
+
+std::string FullInertia(const Eigen::Matrix3d& I) {
+  std::ostringstream s;
+  s.precision(17);
+  s << I(0, 0) << ' ' << I(1, 1) << ' ' << I(2, 2) << ' ' << I(0, 1) << ' ' << I(0, 2) << ' '
+    << I(1, 2);
+  return s.str();
+}
+
+double FootMu(const PlantConfig& c, int f) { return c.foot_mu[f] >= 0 ? c.foot_mu[f] : c.ground_mu; }
+
+}  // namespace
+
+std::string CoulombFloorMjcf(double mu) {
+  std::ostringstream x;
+  x << "<geom name=\"floor\" type=\"plane\" size=\"0 0 1\" contype=\"0\" conaffinity=\"2\" "
+    << "priority=\"1\" condim=\"3\" friction=\"" << mu << " 0.005 0.0001\" " << kFloorContact
+    << "/>";
+  return x.str();
+}
+
+std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config) {
+  using dynamics::kNumBodies;
+  std::ostringstream x;
+  x.precision(17);
+  x << "<mujoco model=\"hyq\">\n"
+    << "  <compiler angle=\"radian\" inertiafromgeom=\"false\" balanceinertia=\"false\"/>\n"
+    << "  <option timestep=\"" << config.timestep_s
+    << "\" cone=\"elliptic\" impratio=\"100\"/>\n"
+    // the robot's own geoms collide only with the floor (contype 2 → floor conaffinity 2); the
+    // feet touch the floor through explicit pairs that carry their friction
+    << "  <default><geom contype=\"2\" conaffinity=\"0\" condim=\"3\"/></default>\n"
+    << "  <worldbody>\n    " << CoulombFloorMjcf(config.ground_mu) << "\n";
+  // bodies, depth first (parents precede children in the model)
+  std::array<int, kNumBodies> depth{};
+  std::function<void(int, int)> emit = [&](int b, int indent) {
+    const dynamics::Body& body = model.bodies[b];
+    const std::string pad(static_cast<std::size_t>(indent), ' ');
+    if (b == dynamics::kTrunk) {
+      x << pad << "<body name=\"" << body.name << "\" pos=\"0 0 " << model.standing_base_height_m
+        << "\">\n"
+        << pad << "  <freejoint name=\"floating_base\"/>\n"
+        << pad << "  <geom name=\"trunk\" type=\"box\" size=\"0.465 0.175 0.1\"/>\n"
+        << pad << "  <site name=\"imu\" pos=\"" << Vec(model.imu.p_BF_B) << "\" quat=\""
+        << Quat(model.imu.R_BF) << "\"/>\n";
+    } else {
+      const int j = b - 1;
+      const auto& lim = model.limits[j];
+      x << pad << "<body name=\"" << body.name << "\" pos=\"" << Vec(body.p_PJ_P) << "\" quat=\""
+        << Quat(body.R_PJ) << "\">\n"
+        << pad << "  <joint name=\"" << model.joint_names[j] << "\" type=\"hinge\" axis=\""
+        << Vec(body.axis_B) << "\" limited=\"true\" range=\"" << lim.lower_rad << ' '
+        << lim.upper_rad << "\" " << kJointStop << "/>\n";
+      const int k = j % dynamics::kJointsPerLeg;
+      if (k == 1) x << pad << "  <geom type=\"capsule\" fromto=\"0.05 0 0 0.3 0 0\" size=\"0.03\"/>\n";
+      if (k == 2) {
+        x << pad << "  <geom type=\"capsule\" fromto=\"0.05 0 0 0.3 0 0\" size=\"0.02\"/>\n";
+        const dynamics::FootFrame& foot = model.feet[j / dynamics::kJointsPerLeg];
+        x << pad << "  <geom name=\"" << foot.name << "\" type=\"sphere\" size=\"" << foot.radius_m
+          << "\" pos=\"" << Vec(foot.p_BF_B) << "\" contype=\"0\" conaffinity=\"0\"/>\n";
+      }
+    }
+    const auto& in = body.inertia;
+    x << pad << "  <inertial pos=\"" << Vec(in.p_BoBcm_B) << "\" mass=\"" << in.mass
+      << "\" fullinertia=\"" << FullInertia(in.I_Bcm_B) << "\"/>\n";
+    for (int c = 0; c < kNumBodies; ++c)
+      if (model.bodies[c].parent == b) emit(c, indent + 2);
+    x << pad << "</body>\n";
+  };
+  (void)depth;
+  emit(dynamics::kTrunk, 4);
+  x << "  </worldbody>\n  <contact>\n";
+  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+    const double mu = FootMu(config, f);
+    x << "    <pair name=\"" << model.feet[f].name << "_floor\" geom1=\"floor\" geom2=\""
+      << model.feet[f].name << "\" condim=\"3\" friction=\"" << mu << ' ' << mu
+      << " 0.005 0.0001 0.0001\" " << kFloorContact << "/>\n";
+  }
+  x << "  </contact>\n  <actuator>\n";
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const double e = model.limits[j].effort_Nm;
+    x << "    <motor name=\"" << model.joint_names[j] << "\" joint=\"" << model.joint_names[j]
+      << "\" ctrllimited=\"true\" ctrlrange=\"" << -e << ' ' << e << "\"/>\n";
+  }
+  x << "  </actuator>\n";
+  if (config.imu_sensor)
+    x << "  <sensor>\n    <gyro name=\"imu_gyro\" site=\"imu\"/>\n"
+      << "    <accelerometer name=\"imu_accel\" site=\"imu\"/>\n  </sensor>\n";
+  x << "</mujoco>\n";
+  return x.str();
+}
+
+GroundPatch ParseGroundPatch(const std::string& text, const std::string& what) {
+  GroundPatch p;
+  double* fields[] = {&p.x0_m, &p.x1_m, &p.y0_m, &p.y1_m, &p.mu};
+  std::size_t start = 0;
+  for (int i = 0; i < 5; ++i) {
+    const std::size_t comma = text.find(',', start);
+    const bool last = i == 4;
+    if (last != (comma == std::string::npos))
+      throw std::invalid_argument(what + ": expected five numbers X0,X1,Y0,Y1,MU, found '" +
+                                  text + "'");
+    const std::string field = text.substr(start, last ? std::string::npos : comma - start);
+    char* end = nullptr;
+    *fields[i] = std::strtod(field.c_str(), &end);
+    if (field.empty() || end != field.c_str() + field.size() || !std::isfinite(*fields[i]))
+      throw std::invalid_argument(what + ": expected a number for field " + std::to_string(i + 1) +
+                                  " of X0,X1,Y0,Y1,MU, found '" + field + "'");
+    start = comma + 1;
+  }
+  if (!(p.x0_m < p.x1_m) || !(p.y0_m < p.y1_m))
+    throw std::invalid_argument(what + ": expected X0 < X1 and Y0 < Y1, found '" + text + "'");
+  if (p.mu < 0.0)
+    throw std::invalid_argument(what + ": expected MU >= 0, found '" + text + "'");
+  return p;
+}
+
+double JointFrictionConfig::Torque(int joint, double qd) const noexcept {
+  if (!enabled) return 0.0;
+  const auto k = static_cast<std::size_t>(joint % dynamics::kJointsPerLeg);
+  return -(coulomb_Nm[k] * std::tanh(qd / band_rad_s) + viscous_Nm_s[k] * qd);
+}
+
+dynamics::Model PerturbModel(const dynamics::Model& nominal, const ModelErrorConfig& e) {
+  if (!(e.payload_kg >= 0) || !e.p_BoP_B.allFinite() || !(e.mass_rel >= 0 && e.mass_rel < 1) ||
+      !(e.com_m >= 0) || !(e.inertia_rel >= 0 && e.inertia_rel < 1))
+    throw std::invalid_argument("model error: expected payload >= 0 kg at a finite position, "
+                                "0 <= mass and inertia errors < 1, CoM error >= 0");
+  dynamics::Model m = nominal;
+  if (e.link_errors) {
+    // xorshift64* uniforms in [-1, 1): the same draws on every platform, in body order
+    std::uint64_t s = e.seed == 0 ? 0x9E3779B97F4A7C15ull : e.seed;
+    auto uniform = [&s] {
+      s ^= s >> 12;
+      s ^= s << 25;
+      s ^= s >> 27;
+      return 2.0 * static_cast<double>((s * 2685821657736338717ull) >> 11) * 0x1.0p-53 - 1.0;
+    };
+    for (dynamics::Body& b : m.bodies) {
+      dynamics::RigidBodyInertia& in = b.inertia;
+      in.mass *= 1.0 + e.mass_rel * uniform();
+      for (int i = 0; i < 3; ++i) in.p_BoBcm_B(i) += e.com_m * uniform();
+      // one factor for the whole tensor keeps it a physical inertia (triangle inequalities)
+      in.I_Bcm_B *= 1.0 + e.inertia_rel * uniform();
+    }
+  }
+  if (e.payload_kg > 0) {
+    // a point mass lumped into the trunk: combined CoM, parallel-axis theorem for both parts
+    dynamics::RigidBodyInertia& t = m.bodies[dynamics::kTrunk].inertia;
+    const double mt = t.mass, mp = e.payload_kg, mc = mt + mp;
+    const Eigen::Vector3d c = (mt * t.p_BoBcm_B + mp * e.p_BoP_B) / mc;
+    auto shift = [](double mass, const Eigen::Vector3d& d) {
+      return Eigen::Matrix3d(mass * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose()));
+    };
+    t.I_Bcm_B = t.I_Bcm_B + shift(mt, t.p_BoBcm_B - c) + shift(mp, e.p_BoP_B - c);
+    t.p_BoBcm_B = c;
+    t.mass = mc;
+  }
+  return m;
+}
+
+Plant::Plant(const dynamics::Model& model, const PlantConfig& config)
+    : mjcf_(MakeMjcf(PerturbModel(model, config.model_error), config)),
+      patches_(config.patches),
+      friction_(config.joint_friction) {
+  if (friction_.enabled && !(friction_.band_rad_s > 0))
+    throw std::invalid_argument("joint friction: expected a velocity band > 0 rad/s, found " +
+                                std::to_string(friction_.band_rad_s));
+  mjVFS vfs;
+  mj_defaultVFS(&vfs);
+  if (mj_makeEmptyFileVFS(&vfs, "hyq.xml", static_cast<int>(mjcf_.size())) != 0)
+    throw PlantError("MuJoCo: cannot create the in-memory model file");
+  std::memcpy(vfs.filedata[mj_findFileVFS(&vfs, "hyq.xml")], mjcf_.data(), mjcf_.size());
+  char error[1000] = "";
+  m_ = mj_loadXML("hyq.xml", &vfs, error, sizeof(error));
+  mj_deleteVFS(&vfs);
+  if (m_ == nullptr) throw PlantError(std::string("MuJoCo rejected the generated model: ") + error);
+  d_ = mj_makeData(m_);
+  floor_geom_ = mj_name2id(m_, mjOBJ_GEOM, "floor");
+  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+    foot_geom_[f] = mj_name2id(m_, mjOBJ_GEOM, model.feet[f].name.c_str());
+    foot_pair_[f] = mj_name2id(m_, mjOBJ_PAIR, (model.feet[f].name + "_floor").c_str());
+    foot_body_[f] = m_->geom_bodyid[foot_geom_[f]];
+    base_mu_[static_cast<std::size_t>(f)] = FootMu(config, f);
+  }
+  const int gyro = mj_name2id(m_, mjOBJ_SENSOR, "imu_gyro");
+  const int accel = mj_name2id(m_, mjOBJ_SENSOR, "imu_accel");
+  if (gyro >= 0) gyro_adr_ = m_->sensor_adr[gyro];
+  if (accel >= 0) accel_adr_ = m_->sensor_adr[accel];
+  Reset(model.StandingQ(), dynamics::VectorV::Zero());
+}
+
+Plant::~Plant() {
+  if (d_ != nullptr) mj_deleteData(d_);
+  if (m_ != nullptr) mj_deleteModel(m_);
+}
+
+void Plant::Reset(const dynamics::VectorQ& q, const dynamics::VectorV& v) {
+  mj_resetData(m_, d_);
+  Eigen::Map<dynamics::VectorQ>(d_->qpos) = q;
+  Eigen::Map<dynamics::VectorV>(d_->qvel) = v;
+  mj_forward(m_, d_);
+  ApplyPatches();
+}
+
+void Plant::Step(const dynamics::VectorJ& tau_Nm) {
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    d_->ctrl[j] = tau_Nm(j);
+    // joint friction at the velocity the step starts from (explicit: b h / I << 1 for HyQ's
+    // links at h = 1 ms)
+    d_->qfrc_applied[6 + j] = friction_.Torque(j, d_->qvel[6 + j]);
+  }
+  mj_step(m_, d_);
+  ApplyPatches();
+}
+
+// each foot's contact pair takes the μ of the ground under the sphere's centre (geom_xpos is
+// the state the next step starts from)
+void Plant::ApplyPatches() {
+  if (patches_.empty()) return;
+  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+    const mjtNum* p = d_->geom_xpos + 3 * foot_geom_[f];
+    const double mu = FrictionAt(f, p[0], p[1]);
+    m_->pair_friction[5 * foot_pair_[f] + 0] = mu;
+    m_->pair_friction[5 * foot_pair_[f] + 1] = mu;
+  }
+}
+
+double Plant::FrictionAt(int foot, double x, double y) const {
+  for (const GroundPatch& p : patches_)
+    if (p.Contains(x, y)) return p.mu;
+  return base_mu_[static_cast<std::size_t>(foot)];
+}
+
+dynamics::VectorQ Plant::q() const { return Eigen::Map<const dynamics::VectorQ>(d_->qpos); }
+dynamics::VectorV Plant::v() const { return Eigen::Map<const dynamics::VectorV>(d_->qvel); }
+double Plant::time() const { return d_->time; }
+
+ImuReading Plant::Imu() const {
+  ImuReading r;
+  if (gyro_adr_ >= 0) r.gyro_rad_s = Eigen::Map<const Eigen::Vector3d>(d_->sensordata + gyro_adr_);
+  if (accel_adr_ >= 0)
+    r.specific_force_m_s2 = Eigen::Map<const Eigen::Vector3d>(d_->sensordata + accel_adr_);
+  return r;
+}
+
+bool Plant::BodyTouchesGround() const {
+  for (int i = 0; i < d_->ncon; ++i) {
+    const mjContact& c = d_->contact[i];
+    const int other = c.geom1 == floor_geom_ ? c.geom2 : c.geom2 == floor_geom_ ? c.geom1 : -1;
+    if (other < 0) continue;
+    bool foot = false;
+    for (int f = 0; f < dynamics::kNumFeet; ++f) foot = foot || other == foot_geom_[f];
+    if (!foot) return true;
+  }
+  return false;
+}
+
+void Plant::SetFootFriction(int foot, double mu) {
+  base_mu_[static_cast<std::size_t>(foot)] = mu;
+  m_->pair_friction[5 * foot_pair_[foot] + 0] = mu;
+  m_->pair_friction[5 * foot_pair_[foot] + 1] = mu;
+  ApplyPatches();
+}
+double Plant::foot_friction(int foot) const { return m_->pair_friction[5 * foot_pair_[foot]]; }
+
+std::array<FootContact, 4> Plant::FootContacts() const {
+  std::array<FootContact, 4> out{};
+  for (int i = 0; i < d_->ncon; ++i) {
+    const mjContact& c = d_->contact[i];
+    for (int f = 0; f < dynamics::kNumFeet; ++f) {
+      if (!((c.geom1 == floor_geom_ && c.geom2 == foot_geom_[f]) ||
+            (c.geom2 == floor_geom_ && c.geom1 == foot_geom_[f])))
+        continue;
+      mjtNum local[6];
+      mj_contactForce(m_, d_, i, local);
+      // the contact frame's rows are its axes (normal first), pointing from geom1 to geom2; the
+      // force is the one geom1 exerts on geom2
+      const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> frame(c.frame);
+      Eigen::Vector3d f_W = frame.transpose() * Eigen::Vector3d(local[0], local[1], local[2]);
+      if (c.geom1 == foot_geom_[f]) f_W = -f_W;
+      out[f].touching = true;
+      out[f].force_W += f_W;
+      // velocity of the foot's material point at the contact
+      mjtNum vel[6];
+      mj_objectVelocity(m_, d_, mjOBJ_GEOM, foot_geom_[f], vel, 0);
+      const Eigen::Vector3d w(vel[0], vel[1], vel[2]), v_c(vel[3], vel[4], vel[5]);
+      const Eigen::Vector3d r = Eigen::Vector3d(c.pos[0], c.pos[1], c.pos[2]) -
+                                Eigen::Vector3d(d_->geom_xpos + 3 * foot_geom_[f]);
+      const Eigen::Vector3d v_p = v_c + w.cross(r);
+      const Eigen::Vector3d n(c.frame[0], c.frame[1], c.frame[2]);
+      out[f].slip_velocity_W = v_p - v_p.dot(n) * n;
+    }
+  }
+  return out;
+}
+
+}  // namespace hyq::sim

@@ -1,0 +1,283 @@
+#include "sim/plant_profile.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+#include <vector>
+#include <cstdlib>
+
+namespace hyq::sim {
+namespace {
+
+// xorshift64* uniforms in [-1, 1) (the same draws on every platform); `stream` separates the
+// load-cell, gyro and accelerometer draws so that one level does not shift the others
+class Uniform {
+ public:
+  Uniform(std::uint64_t seed, std::uint64_t stream)
+      : s_((seed == 0 ? 0x9E3779B97F4A7C15ull : seed) ^ (stream * 0xD1B54A32D192ED03ull)) {
+    if (s_ == 0) s_ = 1;
+  }
+  double operator()() {
+    s_ ^= s_ >> 12;
+    s_ ^= s_ << 25;
+    s_ ^= s_ >> 27;
+    return 2.0 * static_cast<double>((s_ * 2685821657736338717ull) >> 11) * 0x1.0p-53 - 1.0;
+  }
+
+ private:
+  std::uint64_t s_;
+};
+
+}  // namespace
+
+PlantProfile PlantProfile::Ideal() { return PlantProfile{}; }
+
+// The levels and their sources: docs/simulation.md, "Plant profiles".
+PlantProfile PlantProfile::Realistic() {
+  PlantProfile p;
+  p.name = "realistic";
+  p.model_error.payload_kg = 1.0;
+  p.model_error.p_BoP_B = Eigen::Vector3d(0.10, 0.05, 0.08);
+  p.model_error.link_errors = true;
+  p.model_error.seed = 1;
+  p.model_error.mass_rel = 0.05;
+  p.model_error.com_m = 0.01;
+  p.model_error.inertia_rel = 0.10;
+  p.joint_friction.enabled = true;
+  p.joint_friction.coulomb_Nm = {1.0, 1.0, 1.0};
+  p.joint_friction.viscous_Nm_s = {0.2, 0.2, 0.2};
+  p.joint_friction.band_rad_s = 0.01;
+  p.hydraulics = true;
+  p.delay_cycles = 1;
+  p.load_cell_bias_Nm = 1.0;
+  p.gyro_bias_rad_s = 0.0035;
+  p.accel_bias_m_s2 = 0.05;
+  p.bias_seed = 1;
+  return p;
+}
+
+PlantProfile ProfileByName(std::string_view name, const std::string& what) {
+  if (name == "ideal") return PlantProfile::Ideal();
+  if (name == "realistic") return PlantProfile::Realistic();
+  throw std::invalid_argument(what + ": expected a plant profile ideal or realistic, found '" +
+                              std::string(name) + "'");
+}
+
+namespace {
+
+[[noreturn]] void BadFlag(std::string_view flag, const std::string& expected, const std::string& found) {
+  throw std::invalid_argument(std::string(flag) + ": expected " + expected + ", found '" + found + "'");
+}
+
+double FlagNumber(std::string_view flag, const std::string& v, const std::string& expected) {
+  char* end = nullptr;
+  const double x = std::strtod(v.c_str(), &end);
+  if (v.empty() || *end != '\0' || !std::isfinite(x)) BadFlag(flag, expected, v);
+  return x;
+}
+
+std::uint64_t FlagSeed(std::string_view flag, const std::string& v, const std::string& expected) {
+  char* end = nullptr;
+  const unsigned long long s = std::strtoull(v.c_str(), &end, 10);
+  if (v.empty() || *end != '\0' || v[0] == '-' || v[0] == '+') BadFlag(flag, expected, v);
+  return s;
+}
+
+
+}  // namespace
+
+bool ApplyProfileFlag(std::string_view flag, const std::string& v, PlantProfile* p) {
+  if (flag == "--payload") {
+    const std::string expected = "KG,X,Y,Z (kg >= 0; m in the trunk frame, |X|,|Y|,|Z| <= 2) or off";
+    if (v == "off") {
+      p->model_error.payload_kg = 0.0;
+      return true;
+    }
+    const auto f = SplitCommas(v);
+    if (f.size() != 4) BadFlag(flag, expected, v);
+    const double kg = FlagNumber(flag, f[0], expected);
+    Eigen::Vector3d pos;
+    for (int k = 0; k < 3; ++k) pos(k) = FlagNumber(flag, f[static_cast<std::size_t>(k + 1)], expected);
+    if (kg < 0 || pos.cwiseAbs().maxCoeff() > 2.0) BadFlag(flag, expected, v);
+    p->model_error.payload_kg = kg;
+    p->model_error.p_BoP_B = pos;
+  } else if (flag == "--link-errors") {
+    p->model_error.link_errors = v != "off";
+    if (p->model_error.link_errors) p->model_error.seed = FlagSeed(flag, v, "a seed (unsigned integer) or off");
+  } else if (flag == "--hydraulics" || flag == "--joint-friction") {
+    if (v != "on" && v != "off") BadFlag(flag, "on or off", v);
+    if (flag == "--hydraulics") p->hydraulics = v == "on";
+    else p->joint_friction = v == "on" ? PlantProfile::Realistic().joint_friction : JointFrictionConfig{};
+  } else if (flag == "--delay-cycles") {
+    const std::string expected = "an integer 0.." + std::to_string(kMaxDelayCycles);
+    const double k = FlagNumber(flag, v, expected);
+    if (k < 0 || k > kMaxDelayCycles || k != std::floor(k)) BadFlag(flag, expected, v);
+    p->delay_cycles = static_cast<int>(k);
+  } else if (flag == "--load-cell-bias") {
+    const double b = FlagNumber(flag, v, "N·m >= 0");
+    if (b < 0) BadFlag(flag, "N·m >= 0", v);
+    p->load_cell_bias_Nm = b;
+  } else if (flag == "--imu-bias") {
+    const std::string expected = "G,A (rad/s, m/s², >= 0)";
+    const auto f = SplitCommas(v);
+    if (f.size() != 2) BadFlag(flag, expected, v);
+    const double g = FlagNumber(flag, f[0], expected), a = FlagNumber(flag, f[1], expected);
+    if (g < 0 || a < 0) BadFlag(flag, expected, v);
+    p->gyro_bias_rad_s = g;
+    p->accel_bias_m_s2 = a;
+  } else if (flag == "--bias-seed") {
+    p->bias_seed = FlagSeed(flag, v, "an unsigned integer");
+  } else {
+    return false;
+  }
+  return true;
+}
+
+void PlantProfile::ApplyTo(PlantConfig* pc) const {
+  pc->model_error = model_error;
+  pc->joint_friction = joint_friction;
+}
+
+std::array<double, dynamics::kNumJoints> PlantProfile::LoadCellBiases() const {
+  std::array<double, dynamics::kNumJoints> b{};
+  Uniform u(bias_seed, 1);
+  for (double& x : b) x = load_cell_bias_Nm * u();
+  return b;
+}
+
+Eigen::Vector3d PlantProfile::GyroBias() const {
+  Uniform u(bias_seed, 2);
+  Eigen::Vector3d b;
+  for (int i = 0; i < 3; ++i) b(i) = gyro_bias_rad_s * u();
+  return b;
+}
+
+Eigen::Vector3d PlantProfile::AccelBias() const {
+  Uniform u(bias_seed, 3);
+  Eigen::Vector3d b;
+  for (int i = 0; i < 3; ++i) b(i) = accel_bias_m_s2 * u();
+  return b;
+}
+
+std::string PlantProfile::Json() const {
+  std::ostringstream s;
+  s.precision(9);
+  const auto& e = model_error;
+  const auto& f = joint_friction;
+  s << "{\"name\": \"" << name << "\", \"payload\": {\"mass_kg\": " << e.payload_kg
+    << ", \"p_BoP_B_m\": [" << e.p_BoP_B.x() << ", " << e.p_BoP_B.y() << ", " << e.p_BoP_B.z()
+    << "]}, \"link_errors\": ";
+  if (e.link_errors)
+    s << "{\"seed\": " << e.seed << ", \"mass_rel\": " << e.mass_rel << ", \"com_m\": " << e.com_m
+      << ", \"inertia_rel\": " << e.inertia_rel << "}";
+  else
+    s << "null";
+  s << ", \"joint_friction\": ";
+  if (f.enabled)
+    s << "{\"coulomb_Nm\": [" << f.coulomb_Nm[0] << ", " << f.coulomb_Nm[1] << ", " << f.coulomb_Nm[2]
+      << "], \"viscous_Nm_s\": [" << f.viscous_Nm_s[0] << ", " << f.viscous_Nm_s[1] << ", "
+      << f.viscous_Nm_s[2] << "], \"band_rad_s\": " << f.band_rad_s << "}";
+  else
+    s << "null";
+  s << ", \"hydraulics\": ";
+  if (hydraulics) {
+    const auto& h = hydraulic;
+    s << "{\"supply_pressure_Pa\": " << h.supply_pressure_Pa << ", \"bulk_modulus_Pa\": "
+      << h.bulk_modulus_Pa << ", \"valve_bandwidth_hz\": " << h.valve_bandwidth_hz
+      << ", \"valve_rated_flow_m3_s\": " << h.valve_rated_flow_m3_s << ", \"loop_rate_hz\": "
+      << h.loop_rate_hz << "}";
+  } else {
+    s << "null";
+  }
+  s << ", \"delay_cycles\": " << delay_cycles << ", \"load_cell_bias_Nm\": " << load_cell_bias_Nm
+    << ", \"gyro_bias_rad_s\": " << gyro_bias_rad_s << ", \"accel_bias_m_s2\": " << accel_bias_m_s2
+    << ", \"bias_seed\": " << bias_seed << "}";
+  return s.str();
+}
+
+Actuation::Actuation(const dynamics::Model& model, std::span<const hal::JointCalibration> joints,
+                     const PlantProfile& profile, double lag_tau_s, double rate_limit_Nm_s,
+                     double step_s)
+    : profile_(profile),
+      alpha_(lag_tau_s > 0 ? -std::expm1(-step_s / lag_tau_s) : 1.0),
+      rate_step_Nm_(rate_limit_Nm_s * step_s),
+      passthrough_(!(lag_tau_s > 0) && !(rate_limit_Nm_s > 0)),
+      bias_(profile.LoadCellBiases()) {
+  if (profile.delay_cycles < 0 || profile.delay_cycles > kMaxDelayCycles)
+    throw std::invalid_argument("plant profile: expected a delay of 0.." +
+                                std::to_string(kMaxDelayCycles) + " cycles, found " +
+                                std::to_string(profile.delay_cycles));
+  if (!(profile.load_cell_bias_Nm >= 0) || !(profile.gyro_bias_rad_s >= 0) ||
+      !(profile.accel_bias_m_s2 >= 0))
+    throw std::invalid_argument("plant profile: expected bias levels >= 0");
+  if (profile.hydraulics) {
+    if (joints.size() != static_cast<std::size_t>(dynamics::kNumJoints))
+      throw std::invalid_argument("plant profile: the hydraulic actuators need the HAL's 12 joint "
+                                  "calibrations, found " + std::to_string(joints.size()));
+    for (int j = 0; j < dynamics::kNumJoints; ++j) {
+      const auto& lim = model.limits[static_cast<std::size_t>(j)];
+      hyd_[static_cast<std::size_t>(j)] = std::make_unique<HydraulicActuator>(
+          profile.hydraulic, joints[static_cast<std::size_t>(j)], lim.lower_rad, lim.upper_rad,
+          step_s, model.joint_names[static_cast<std::size_t>(j)]);
+    }
+  }
+  for (auto& slot : ring_) slot.setZero();
+}
+
+Actuation::~Actuation() = default;
+
+const HydraulicActuator* Actuation::hydraulic(int joint) const noexcept {
+  return hyd_[static_cast<std::size_t>(joint)].get();
+}
+
+void Actuation::Reset(const dynamics::VectorJ& q) noexcept {
+  for (auto& slot : ring_) slot.setZero();
+  head_ = 0;
+  applied_.setZero();
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    if (hyd_[static_cast<std::size_t>(j)]) hyd_[static_cast<std::size_t>(j)]->Reset(q(j), 0.0);
+    measured_(j) = bias_[static_cast<std::size_t>(j)];
+  }
+}
+
+void Actuation::Step(const dynamics::VectorJ& u, const dynamics::VectorJ& q,
+                     const dynamics::VectorJ& qd) noexcept {
+  // the delay line: the set-point given now comes out delay_cycles steps later
+  const int n = profile_.delay_cycles + 1;
+  ring_[static_cast<std::size_t>(head_)] = u;
+  const dynamics::VectorJ& cmd = ring_[static_cast<std::size_t>((head_ + 1) % n)];
+  head_ = (head_ + 1) % n;
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    double out;
+    if (HydraulicActuator* h = hyd_[static_cast<std::size_t>(j)].get()) {
+      applied_(j) = h->Step(cmd(j), q(j), qd(j));
+      out = h->torque_Nm();
+    } else {
+      if (passthrough_) {
+        applied_(j) = cmd(j);  // ideal: exactly the set-point
+        measured_(j) = cmd(j) + bias_[static_cast<std::size_t>(j)];
+        continue;
+      }
+      // SimulatedRobot's eq. (1) and its rate limit
+      double d = alpha_ * (cmd(j) - applied_(j));
+      if (rate_step_Nm_ > 0) d = std::clamp(d, -rate_step_Nm_, rate_step_Nm_);
+      applied_(j) += d;
+      out = applied_(j);
+    }
+    measured_(j) = out + bias_[static_cast<std::size_t>(j)];
+  }
+}
+
+std::vector<std::string> SplitCommas(const std::string& s) {
+  std::vector<std::string> out;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t c = s.find(',', start);
+    out.push_back(s.substr(start, c - start));
+    if (c == std::string::npos) return out;
+    start = c + 1;
+  }
+}
+
+}  // namespace hyq::sim

@@ -1,0 +1,111 @@
+// A plant that is not the model: every way the simulated HyQ may differ from
+// what the controller assumes, each switchable, in one struct shared by hyq-sim
+// (SimulatedRobot) and the in-process experiment (RunExperiment). docs/simulation.md, "Plant
+// profiles", lists every factor, its flag, its level in `realistic` and the source of the level.
+//
+//  - model error: payload and per-link mass / CoM / inertia errors (PlantConfig::model_error,
+//    applied to the MuJoCo model; the controller keeps the nominal URDF)
+//  - actuators: HyQ's hydraulics with the board's torque loop (sim/hydraulic_actuator.h)
+//    instead of the first-order lag
+//  - joint friction, Coulomb + viscous (PlantConfig::joint_friction)
+//  - transport delay: a set-point takes effect k plant steps after it was given
+//  - sensor biases: a load-cell offset per joint and IMU gyro / accelerometer biases, drawn
+//    from the seed
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "dynamics/model.h"
+#include "hal/calibration.h"
+#include "sim/hydraulic_actuator.h"
+#include "sim/plant.h"
+
+namespace hyq::sim {
+
+inline constexpr int kMaxDelayCycles = 50;
+
+struct PlantProfile {
+  std::string name = "ideal";
+  ModelErrorConfig model_error;          // payload_kg 0 and link_errors false: none
+  JointFrictionConfig joint_friction;    // enabled false: none
+  bool hydraulics = false;               // false: the caller's first-order lag (or ideal)
+  HydraulicParams hydraulic;
+  int delay_cycles = 0;                  // 0..kMaxDelayCycles
+  /// Sensor biases, drawn once from bias_seed, uniform in ±level: per joint a load-cell offset
+  /// (N·m at the joint), per IMU axis a gyro (rad/s) and an accelerometer (m/s²) bias.
+  double load_cell_bias_Nm = 0.0;
+  double gyro_bias_rad_s = 0.0;
+  double accel_bias_m_s2 = 0.0;
+  std::uint64_t bias_seed = 1;
+
+  /// Today's plant: nothing of the above (hyq-sim keeps its --actuator-tau lag).
+  static PlantProfile Ideal();
+  /// Every factor on at the levels of docs/simulation.md.
+  static PlantProfile Realistic();
+  /// Copies the plant-side factors (model error, joint friction) into `pc`.
+  void ApplyTo(PlantConfig* pc) const;
+  /// The drawn biases.
+  std::array<double, dynamics::kNumJoints> LoadCellBiases() const;
+  Eigen::Vector3d GyroBias() const;
+  Eigen::Vector3d AccelBias() const;
+  /// One JSON object with every factor and its level (summaries, results.json).
+  std::string Json() const;
+};
+
+/// "ideal" or "realistic"; throws std::invalid_argument naming `what`, the names expected and
+/// what was found.
+PlantProfile ProfileByName(std::string_view name, const std::string& what);
+
+/// One factor's command-line flag (hyq-sim, hyq-experiment) applied to `p`: --payload KG,X,Y,Z|off,
+/// --link-errors SEED|off, --hydraulics on|off, --joint-friction on|off (realistic's levels),
+/// --delay-cycles K, --load-cell-bias NM, --imu-bias G,A, --bias-seed N. Returns false for
+/// another flag; throws std::invalid_argument naming the flag, what was expected and what was
+/// found.
+bool ApplyProfileFlag(std::string_view flag, const std::string& value, PlantProfile* p);
+
+/// "a,b,,c" → {"a", "b", "", "c"} (the command-line flags' lists).
+std::vector<std::string> SplitCommas(const std::string& s);
+
+/// The actuation path from the set-points to the torque the plant applies, and the torque the
+/// load cells report: delay (a ring of k + 1 slots), then per joint either the hydraulic
+/// actuator with its torque loop, or the first-order lag of SimulatedRobot's eq. (1) with its
+/// rate limit (lag_tau_s 0: ideal); the measured torque is the actuator's output at the end of
+/// the step (the rod's load cell / the HAA's torque sensor) plus the load-cell bias.
+/// Step() allocates nothing and never throws.
+class Actuation {
+ public:
+  /// joints: the HAL's calibrations (12; needed when profile.hydraulics). Throws at
+  /// configuration time (bad delay, missing calibration, bad hydraulic parameters).
+  Actuation(const dynamics::Model& model, std::span<const hal::JointCalibration> joints,
+            const PlantProfile& profile, double lag_tau_s, double rate_limit_Nm_s, double step_s);
+  ~Actuation();
+
+  /// At rest at the joint angles q with zero torque; the delay line emptied.
+  void Reset(const dynamics::VectorJ& q) noexcept;
+  /// One plant step: u the set-points (already clamped), q and qd the joints at the step's start.
+  void Step(const dynamics::VectorJ& u, const dynamics::VectorJ& q, const dynamics::VectorJ& qd) noexcept;
+  /// What the plant applies this step (the mean over the step for the hydraulics).
+  const dynamics::VectorJ& applied_Nm() const noexcept { return applied_; }
+  /// The actuator's torque at the end of the step plus the load-cell bias (noise is the caller's).
+  const dynamics::VectorJ& measured_Nm() const noexcept { return measured_; }
+  const HydraulicActuator* hydraulic(int joint) const noexcept;
+
+ private:
+  PlantProfile profile_;
+  double alpha_, rate_step_Nm_;
+  bool passthrough_;  // no lag, no rate limit: the set-point itself
+  std::array<dynamics::VectorJ, kMaxDelayCycles + 1> ring_{};
+  int head_ = 0;
+  std::array<double, dynamics::kNumJoints> bias_{};
+  std::array<std::unique_ptr<HydraulicActuator>, dynamics::kNumJoints> hyd_;
+  dynamics::VectorJ applied_ = dynamics::VectorJ::Zero();
+  dynamics::VectorJ measured_ = dynamics::VectorJ::Zero();
+};
+
+}  // namespace hyq::sim

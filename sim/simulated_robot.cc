@@ -1,0 +1,361 @@
+#include "sim/simulated_robot.h"
+
+#include <poll.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include <Eigen/Geometry>
+
+#include "dynamics/leg_kinematics.h"
+#include "hal/config_error.h"
+#include "hal/protocol.h"
+#include "sim/board_bus.h"
+
+namespace hyq::sim {
+namespace {
+
+// HyQ resting at base height `height_m`: the base level at the origin, each foot on the ground
+// under its place in the standing posture, the legs' joints by their inverse kinematics from
+// the standing angles
+dynamics::VectorQ RestingQ(const dynamics::Model& model, double height_m) {
+  const dynamics::LegKinematics legs(model);
+  dynamics::VectorQ q = model.StandingQ();
+  q(2) = height_m;
+  dynamics::IkStatus status = dynamics::IkStatus::kOk;
+  for (int leg = 0; leg < dynamics::kNumFeet; ++leg) {
+    const Eigen::Vector3d q_leg = model.q_standing.segment<dynamics::kJointsPerLeg>(3 * leg);
+    dynamics::FootMotion foot;
+    foot.p_BF_B = legs.Foot(leg, q_leg);
+    foot.p_BF_B.z() = model.feet[leg].radius_m - height_m;
+    dynamics::LegJointMotion j;
+    const dynamics::IkStatus st = legs.Solve(leg, foot, q_leg, &j);
+    if (st != dynamics::IkStatus::kOk && status == dynamics::IkStatus::kOk) status = st;
+    q.segment<dynamics::kJointsPerLeg>(7 + 3 * leg) = j.q;
+  }
+  if (status != dynamics::IkStatus::kOk)
+    throw hal::ConfigError("simulated robot: start height " + std::to_string(height_m) +
+                           " m: expected a height the legs reach with the feet on the ground, found " +
+                           dynamics::ToString(status));
+  return q;
+}
+
+}  // namespace
+
+/// The device side of one bus, counting the SYNCs that arrive (even those the emulator ignores,
+/// e.g. while its bus is off), so that lock-step follows the master's SYNCs on the wire.
+class SimulatedRobot::SyncCounter final : public hal::CanChannel {
+ public:
+  explicit SyncCounter(hal::CanChannel* inner) : inner_(inner) {}
+  hal::CanStatus Send(std::span<const hal::CanFrame> f, std::size_t* sent) noexcept override {
+    return inner_->Send(f, sent);
+  }
+  hal::CanStatus Receive(std::span<hal::CanFrame> out, std::size_t* received) noexcept override {
+    const hal::CanStatus s = inner_->Receive(out, received);
+    for (std::size_t i = 0; i < *received; ++i) {
+      const hal::CanFrame& f = out[i];
+      if (f.id == hal::cob::kSync && !f.is_extended() && !f.is_error()) ++syncs_;
+    }
+    return s;
+  }
+  const hal::CanCounters& counters() const noexcept override { return inner_->counters(); }
+  bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
+  std::string_view name() const noexcept override { return inner_->name(); }
+  int poll_fd() const noexcept override { return inner_->poll_fd(); }
+  std::uint64_t syncs() const noexcept { return syncs_; }
+
+ private:
+  hal::CanChannel* inner_;
+  std::uint64_t syncs_ = 0;
+};
+
+SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfig& config,
+                               std::span<hal::CanChannel* const> channels,
+                               const SimulatedRobotConfig& cfg)
+    : model_(model),
+      config_(config),
+      cfg_(cfg),
+      period_ns_(std::llround(config.timing.cycle_period_s * 1e9)),
+      holding_(cfg.hold),
+      min_base_height_m_(model.standing_base_height_m),
+      rng_(cfg.seed == 0 ? 0x9E3779B97F4A7C15ull : cfg.seed) {
+  if (!(cfg.actuator_tau_s >= 0) || !(cfg.actuator_rate_limit_Nm_s >= 0) ||
+      !(cfg.encoder_noise_rad >= 0) || !(cfg.load_cell_noise_Nm >= 0) ||
+      !(cfg.gyro_noise_rad_s >= 0) || !(cfg.accel_noise_m_s2 >= 0))
+    throw hal::ConfigError("simulated robot: time constants, rate limits and noise levels must be "
+                           ">= 0");
+  if (channels.size() != config.buses.size())
+    throw hal::ConfigError("simulated robot: " + std::to_string(config.buses.size()) +
+                           " buses configured but " + std::to_string(channels.size()) +
+                           " CAN channels given");
+  std::vector<hal::CanChannel*> wrapped;
+  for (hal::CanChannel* c : channels) {
+    if (c == nullptr) throw hal::ConfigError("simulated robot: a CAN channel is missing");
+    channels_.push_back(std::make_unique<SyncCounter>(c));
+    wrapped.push_back(channels_.back().get());
+  }
+  emulator_ = std::make_unique<hal::Emulator>(config_, wrapped, cfg.seed);
+  PlantConfig pc = cfg.plant;
+  pc.timestep_s = config.timing.cycle_period_s;
+  pc.imu_sensor = true;
+  cfg.profile.ApplyTo(&pc);
+  try {
+    plant_ = std::make_unique<Plant>(model, pc);
+    actuation_ = std::make_unique<Actuation>(model, config.joints, cfg.profile, cfg.actuator_tau_s,
+                                             cfg.actuator_rate_limit_Nm_s,
+                                             config.timing.cycle_period_s);
+  } catch (const std::invalid_argument& e) {
+    throw hal::ConfigError(std::string("simulated robot: ") + e.what());
+  }
+  gyro_bias_ = cfg.gyro_bias_rad_s + cfg.profile.GyroBias();
+  accel_bias_ = cfg.accel_bias_m_s2 + cfg.profile.AccelBias();
+  q_hold_ = cfg.start_height_m > 0.0 ? RestingQ(model, cfg.start_height_m) : model.StandingQ();
+  plant_->Reset(q_hold_, dynamics::VectorV::Zero());
+  actuation_->Reset(q_hold_.tail<dynamics::kNumJoints>());
+  R_BF_ = model.imu.R_BF;
+  UpdateSensors();
+}
+
+SimulatedRobot::~SimulatedRobot() = default;
+
+void SimulatedRobot::ScheduleFault(const FaultSpec& f) {
+  faults_.push_back(f);
+  fault_state_.push_back(0);
+}
+
+double SimulatedRobot::time_s() const noexcept {
+  return static_cast<double>(counters_.steps) * config_.timing.cycle_period_s;
+}
+
+double SimulatedRobot::Gaussian() noexcept {
+  // Marsaglia's polar method on xorshift64* uniforms (the same numbers on every platform)
+  if (has_spare_) {
+    has_spare_ = false;
+    return spare_gaussian_;
+  }
+  auto uniform = [this] {
+    rng_ ^= rng_ >> 12;
+    rng_ ^= rng_ << 25;
+    rng_ ^= rng_ >> 27;
+    return static_cast<double>((rng_ * 2685821657736338717ull) >> 11) * 0x1.0p-53;
+  };
+  double u = 0, v = 0, s = 0;
+  do {
+    u = 2 * uniform() - 1;
+    v = 2 * uniform() - 1;
+    s = u * u + v * v;
+  } while (s >= 1 || s == 0);
+  const double m = std::sqrt(-2 * std::log(s) / s);
+  spare_gaussian_ = v * m;
+  has_spare_ = true;
+  return u * m;
+}
+
+void SimulatedRobot::ApplyFaults(double t_s) noexcept {
+  const double t = t_s + 1e-9;
+  for (std::size_t i = 0; i < faults_.size(); ++i) {
+    const FaultSpec& f = faults_[i];
+    std::uint8_t& st = fault_state_[i];
+    if (st == 0 && t >= f.t_s) {
+      st = f.duration_s > 0 ? 1 : 2;
+      ++counters_.faults_injected;
+      hal::DeviceFaults& x =
+          f.joint == FaultSpec::kImuTarget ? emulator_->imu_faults() : emulator_->joint_faults(f.joint);
+      switch (f.kind) {
+        case FaultSpec::Kind::kSilent: x.silent = true; break;
+        case FaultSpec::Kind::kCorrupt: x.corrupt_next += f.count; break;
+        case FaultSpec::Kind::kDrop: x.drop_next += f.count; break;
+        case FaultSpec::Kind::kNan:
+          // a broken load cell: garbage counts with the sensor-fault bit, and the board (whose
+          // torque loop needs the sensor) latches a fault and reports it
+          x.sensor_fault = true;
+          if (f.joint >= 0) emulator_->SendJointEmcy(f.joint, hal::emcy::kSensor);
+          break;
+        case FaultSpec::Kind::kBusOff: emulator_->SetBusOff(f.bus, true); break;
+        case FaultSpec::Kind::kEmcy: emulator_->SendJointEmcy(f.joint, f.emcy_code); break;
+      }
+    } else if (st == 1 && t >= f.t_s + f.duration_s) {
+      st = 2;
+      if (f.kind == FaultSpec::Kind::kBusOff) emulator_->SetBusOff(f.bus, false);
+      if (f.kind == FaultSpec::Kind::kSilent)
+        (f.joint == FaultSpec::kImuTarget ? emulator_->imu_faults()
+                                          : emulator_->joint_faults(f.joint))
+            .silent = false;
+    }
+  }
+}
+
+void SimulatedRobot::Step() noexcept {
+  // actuators: saturation, then (Actuation) the delay and the first-order lag (1) with its rate
+  // limit, or the hydraulics with the board's torque loop
+  bool all_enabled = true, commanding = false;
+  constexpr double kReleaseTorqueNm = 0.0;  // any non-zero set-point (1 mN·m resolution)
+  dynamics::VectorJ u;
+  if (bus_ != nullptr) {
+    bus_->TakeNewestSetpoints(&setpoints_);  // the newest the boards hold
+  } else {
+    ApplyFaults(time_s());
+    setpoints_ = BoardSetpoints();
+  }
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    const double limit = std::min(config_.joints[i].torque_limit_Nm, model_.limits[i].effort_Nm);
+    all_enabled = all_enabled && setpoints_.enabled[i];
+    commanding = commanding || std::abs(setpoints_.tau[i]) > kReleaseTorqueNm;
+    u(j) = std::clamp(setpoints_.tau[i], -limit, limit);
+  }
+  {
+    const dynamics::VectorQ q = plant_->q();
+    const dynamics::VectorV v = plant_->v();
+    actuation_->Step(u, q.tail<dynamics::kNumJoints>(), v.tail<dynamics::kNumJoints>());
+  }
+  tau_applied_ = actuation_->applied_Nm();
+  // off the stand once every board is enabled AND the controller commands torque: a daemon in
+  // STANDBY (enabled, 0 N·m) keeps the robot on its stand, as an operator would
+  if (holding_ && all_enabled && commanding) holding_ = false;
+  if (holding_) {
+    plant_->Reset(q_hold_, dynamics::VectorV::Zero());  // on the stand
+    ++counters_.held_steps;
+  } else {
+    plant_->Step(tau_applied_);
+  }
+  ++counters_.steps;
+  sim_now_ns_.store(time_ns(), std::memory_order_relaxed);
+  const double z = plant_->q()(2);
+  min_base_height_m_ = std::min(min_base_height_m_, z);
+  if (!holding_) max_descent_m_s_ = std::max(max_descent_m_s_, -plant_->v()(2));
+  if (!fell_ && !holding_) {
+    const dynamics::VectorQ q = plant_->q();
+    const double up = Eigen::Quaterniond(q(3), q(4), q(5), q(6)).toRotationMatrix()(2, 2);
+    const bool contact = z < cfg_.fall_height_m || plant_->BodyTouchesGround();
+    if (contact && !sat_down_) {
+      contact_speed_m_s_ = -plant_->v()(2);
+      const bool gentle = contact_speed_m_s_ <= cfg_.max_sit_speed_m_s && up > std::cos(M_PI / 6);
+      (gentle ? sat_down_ : fell_) = true;
+      (gentle ? sat_down_at_s_ : fell_at_s_) = time_s();
+    } else if (sat_down_ && up < std::cos(M_PI / 4)) {
+      fell_ = true;  // sat down, then tipped over
+      fell_at_s_ = time_s();
+    }
+  }
+  UpdateSensors();
+  if (observer_) observer_(*this);
+}
+
+void SimulatedRobot::UpdateSensors() noexcept {
+  const dynamics::VectorQ q = plant_->q();
+  const dynamics::VectorV v = plant_->v();
+  SensorFrame f;
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    double qj = q(7 + j);
+    if (cfg_.encoder_noise_rad > 0) qj += cfg_.encoder_noise_rad * Gaussian();
+    f.q[i] = qj;
+    f.v[i] = v(6 + j);
+    double tau = actuation_->measured_Nm()(j);  // the actuator's output plus the load-cell bias
+    if (cfg_.load_cell_noise_Nm > 0) tau += cfg_.load_cell_noise_Nm * Gaussian();
+    tau_measured_(j) = tau;
+    f.tau[i] = tau;
+  }
+  ImuReading r;
+  if (holding_) {
+    // at rest on the stand: no rotation, the specific force is -g
+    const Eigen::Quaterniond quat(q(3), q(4), q(5), q(6));
+    r.specific_force_m_s2 = (quat.toRotationMatrix() * R_BF_).transpose() * (-model_.gravity_W);
+  } else {
+    r = plant_->Imu();
+  }
+  r.gyro_rad_s += gyro_bias_;
+  r.specific_force_m_s2 += accel_bias_;
+  if (cfg_.gyro_noise_rad_s > 0)
+    for (int i = 0; i < 3; ++i) r.gyro_rad_s(i) += cfg_.gyro_noise_rad_s * Gaussian();
+  if (cfg_.accel_noise_m_s2 > 0)
+    for (int i = 0; i < 3; ++i) r.specific_force_m_s2(i) += cfg_.accel_noise_m_s2 * Gaussian();
+  imu_reported_ = r;
+  f.gyro = {r.gyro_rad_s(0), r.gyro_rad_s(1), r.gyro_rad_s(2)};
+  f.accel = {r.specific_force_m_s2(0), r.specific_force_m_s2(1), r.specific_force_m_s2(2)};
+  if (bus_ != nullptr) {
+    bus_->GiveSensors(f);
+    return;
+  }
+  SetBoardSensors(f);
+}
+
+SetpointFrame SimulatedRobot::BoardSetpoints() const noexcept {
+  SetpointFrame f;
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    f.tau[i] = emulator_->torque_setpoint_Nm(j);
+    f.enabled[i] = emulator_->outputs_enabled(j);
+  }
+  return f;
+}
+
+int SimulatedRobot::channel_poll_fd(std::size_t b) const noexcept {
+  return channels_[b]->poll_fd();
+}
+
+void SimulatedRobot::SetBoardSensors(const SensorFrame& f) noexcept {
+  for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
+    emulator_->SetJointState(j, f.q[i], f.v[i], f.tau[i]);
+  }
+  emulator_->SetImu(f.gyro, f.accel);
+}
+
+void SimulatedRobot::Poll(std::int64_t now_ns) noexcept {
+  emulator_->Poll(now_ns);
+  for (std::size_t b = 0; b < channels_.size(); ++b) counters_.syncs[b] = channels_[b]->syncs();
+}
+
+int SimulatedRobot::PollLockStep() noexcept {
+  Poll(time_ns());
+  int steps = 0;
+  for (;;) {
+    std::uint64_t lo = UINT64_MAX, hi = 0;
+    for (std::size_t b = 0; b < channels_.size(); ++b) {
+      lo = std::min(lo, counters_.syncs[b]);
+      hi = std::max(hi, counters_.syncs[b]);
+    }
+    // every bus saw SYNC k; or a bus fell kMaxSyncLead behind (the master gave up on it)
+    const std::uint64_t target = std::max(lo, hi > kMaxSyncLead ? hi - kMaxSyncLead : 0);
+    if (counters_.steps >= target) break;
+    if (lo <= counters_.steps) ++counters_.lockstep_forced;
+    Step();
+    ++steps;
+  }
+  return steps;
+}
+
+int SimulatedRobot::WaitAndPollLockStep(int timeout_ms) noexcept {
+  const int stepped = PollLockStep();
+  if (stepped > 0) return stepped;
+  std::array<pollfd, hal::kMaxBuses> fds{};
+  nfds_t n = 0;
+  for (const auto& c : channels_)
+    if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
+  if (n == 0) return 0;
+  (void)poll(fds.data(), n, timeout_ms);
+  return PollLockStep();
+}
+
+std::uint64_t SimulatedRobot::RunLockStep(const std::atomic<bool>& stop, double duration_s) {
+  const auto end_steps = duration_s > 0
+                             ? static_cast<std::uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(period_ns_)))
+                             : UINT64_MAX;
+  const std::uint64_t start = counters_.steps;
+  while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps)
+    (void)WaitAndPollLockStep(50);
+  return counters_.steps - start;
+}
+
+std::uint64_t SimulatedRobot::NoteNewSyncs(std::int64_t now_ns, std::uint64_t* seen) noexcept {
+  std::uint64_t syncs = 0;
+  for (std::size_t b = 0; b < channels_.size(); ++b) syncs = std::max(syncs, counters_.syncs[b]);
+  const std::uint64_t fresh = syncs > *seen ? syncs - *seen : 0;
+  if (fresh > 0) last_sync_ns_.store(now_ns, std::memory_order_relaxed);
+  *seen = syncs;
+  return fresh;
+}
+
+}  // namespace hyq::sim
