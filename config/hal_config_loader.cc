@@ -8,6 +8,7 @@
 #include <numbers>
 #include <string>
 
+#include "config/yaml_archive.h"
 #include "config/yaml_reader.h"
 #include "hal/config_error.h"
 
@@ -19,72 +20,6 @@ using detail::Describe;
 using detail::Reader;
 
 constexpr double kDeg = std::numbers::pi / 180.0;
-
-hal::TimingConfig ReadTiming(const Reader& r, const YAML::Node& root) {
-  hal::TimingConfig t;
-  if (!root["timing"].IsDefined()) return t;
-  const YAML::Node n = r.Map(root, "", "timing");
-  if (n["max_missed_cycles"].IsDefined())
-    r.Fail(n["max_missed_cycles"], "timing.max_missed_cycles",
-           "timing.max_held_cycles (renamed: the one hold limit for late or missing inputs, "
-           "which the safety layer shares)", "the old name");
-  r.Keys(n, "timing", {"cycle_period_s", "state_timeout_s", "bringup_timeout_s",
-                       "heartbeat_period_s", "heartbeat_timeout_s", "max_held_cycles",
-                       "min_valid_cycles_for_op", "device_setpoint_timeout_s"});
-  t.cycle_period_s = r.NumberOr(n, "timing", "cycle_period_s", t.cycle_period_s);
-  t.state_timeout_s = r.NumberOr(n, "timing", "state_timeout_s", t.state_timeout_s);
-  t.bringup_timeout_s = r.NumberOr(n, "timing", "bringup_timeout_s", t.bringup_timeout_s);
-  t.heartbeat_period_s = r.NumberOr(n, "timing", "heartbeat_period_s", t.heartbeat_period_s);
-  t.heartbeat_timeout_s = r.NumberOr(n, "timing", "heartbeat_timeout_s", t.heartbeat_timeout_s);
-  t.device_setpoint_timeout_s =
-      r.NumberOr(n, "timing", "device_setpoint_timeout_s", t.device_setpoint_timeout_s);
-  if (n["max_held_cycles"].IsDefined())
-    t.max_held_cycles = static_cast<int>(r.Integer(n, "timing", "max_held_cycles", 0, 1000));
-  if (n["min_valid_cycles_for_op"].IsDefined())
-    t.min_valid_cycles_for_op =
-        static_cast<int>(r.Integer(n, "timing", "min_valid_cycles_for_op", 1, 100000));
-  return t;
-}
-
-hal::BusConfig ReadBus(const Reader& r, const YAML::Node& n, const std::string& path) {
-  if (!n.IsMap()) r.Fail(n, path, "a map describing a bus", Describe(n));
-  r.Keys(n, path, {"name", "interface", "fd", "nominal_bitrate", "data_bitrate", "devices"});
-  hal::BusConfig b;
-  b.name = r.String(n, path, "name");
-  b.interface = r.String(n, path, "interface");
-  b.fd = r.Bool(n, path, "fd");
-  b.nominal_bitrate =
-      static_cast<std::uint32_t>(r.Integer(n, path, "nominal_bitrate", 10'000, 1'000'000));
-  b.data_bitrate = b.nominal_bitrate;
-  if (b.fd)
-    b.data_bitrate =
-        static_cast<std::uint32_t>(r.Integer(n, path, "data_bitrate", 10'000, 12'000'000));
-  const YAML::Node devs = r.Child(n, path, "devices", "a list of devices");
-  if (!devs.IsSequence() || devs.size() == 0)
-    r.Fail(devs, path + ".devices", "a non-empty list of devices", Describe(devs));
-  for (std::size_t i = 0; i < devs.size(); ++i) {
-    const YAML::Node d = devs[i];
-    const std::string dp = path + ".devices[" + std::to_string(i) + "]";
-    if (!d.IsMap()) r.Fail(d, dp, "a map describing a device", Describe(d));
-    r.Keys(d, dp, {"name", "kind", "node_id", "joint"});
-    hal::DeviceConfig dc;
-    dc.name = r.String(d, dp, "name");
-    dc.kind = r.OneOf(d, dp, "kind", {"actuator", "imu"}) == "imu" ? hal::DeviceKind::kImu
-                                                                   : hal::DeviceKind::kActuator;
-    dc.node_id = static_cast<std::uint8_t>(r.Integer(d, dp, "node_id", 1, 127));
-    if (dc.kind == hal::DeviceKind::kActuator) {
-      const std::string joint = r.String(d, dp, "joint");
-      dc.joint = hal::JointIndex(joint);
-      if (dc.joint < 0)
-        r.Fail(d["joint"], dp + ".joint", "a joint name {lf,rf,lh,rh}_{haa,hfe,kfe}_joint",
-               "'" + joint + "'");
-    } else if (d["joint"].IsDefined()) {
-      r.Fail(d["joint"], dp + ".joint", "no joint for an IMU", Describe(d["joint"]));
-    }
-    b.devices.push_back(dc);
-  }
-  return b;
-}
 
 hal::JointCalibration ReadJoint(const Reader& r, const YAML::Node& n, const std::string& path) {
   if (!n.IsMap()) r.Fail(n, path, "a map describing the joint's calibration", Describe(n));
@@ -143,47 +78,37 @@ hal::JointCalibration ReadJoint(const Reader& r, const YAML::Node& n, const std:
   return c;
 }
 
-hal::HalConfig Read(const Reader& r, const YAML::Node& root) {
-  if (!root.IsMap()) r.Fail(root, "(top level)", "a map", Describe(root));
-  r.Keys(root, "", {"timing", "max_bus_load", "heartbeats_in_worst_case", "buses", "joints"});
-  hal::HalConfig c;
-  c.timing = ReadTiming(r, root);
-  c.max_bus_load = r.NumberOr(root, "", "max_bus_load", c.max_bus_load);
-  if (root["heartbeats_in_worst_case"].IsDefined())
-    c.heartbeats_in_worst_case = r.Bool(root, "", "heartbeats_in_worst_case");
+}  // namespace
 
-  const YAML::Node buses = r.Child(root, "", "buses", "a list of buses");
-  if (!buses.IsSequence() || buses.size() == 0)
-    r.Fail(buses, "buses", "a non-empty list of buses", Describe(buses));
-  for (std::size_t i = 0; i < buses.size(); ++i)
-    c.buses.push_back(ReadBus(r, buses[i], "buses[" + std::to_string(i) + "]"));
+namespace detail {
 
-  const YAML::Node joints = r.Map(root, "", "joints");
+void ReadJointCalibrations(const Reader& r, const YAML::Node& joints, const std::string& path,
+                           std::array<hal::JointCalibration, hal::kNumJoints>* out) {
+  if (!joints.IsMap()) r.Fail(joints, path, "a map", Describe(joints));
   for (const auto& kv : joints) {
     const std::string name = kv.first.as<std::string>();
     if (hal::JointIndex(name) < 0)
-      r.Fail(kv.first, "joints." + name, "a joint name {lf,rf,lh,rh}_{haa,hfe,kfe}_joint",
+      r.Fail(kv.first, path + "." + name, "a joint name {lf,rf,lh,rh}_{haa,hfe,kfe}_joint",
              "'" + name + "'");
   }
   for (int j = 0; j < hal::kNumJoints; ++j) {
     const std::string name(hal::JointName(j));
     const YAML::Node n = joints[name];
     if (!n.IsDefined())
-      r.Fail(joints, "joints." + name, "the calibration of every joint",
+      r.Fail(joints, path + "." + name, "the calibration of every joint",
              "nothing (the key is missing)");
-    c.joints[static_cast<std::size_t>(j)] = ReadJoint(r, n, "joints." + name);
+    (*out)[static_cast<std::size_t>(j)] = ReadJoint(r, n, path + "." + name);
   }
-  return c;
 }
 
-}  // namespace
+}  // namespace detail
 
 hal::HalConfig ParseHalConfig(std::string_view yaml_text, std::string_view source_name) {
   const Reader r{std::string(source_name)};
   const YAML::Node root = detail::ParseYaml(r, std::string(yaml_text));
   hal::HalConfig c;
   try {
-    c = Read(r, root);
+    ReadYaml(r, root, {}, &c);
   } catch (const YAML::Exception& e) {
     throw ConfigError(r.source() + ":" + std::to_string(e.mark.line + 1) + ": " + e.msg);
   }

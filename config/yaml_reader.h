@@ -1,6 +1,7 @@
-// The YAML reading helpers every loader in config/ shares: each lookup knows the file and the
-// dotted key path, so that every error names the file, the line, the key, what was expected and
-// what was found. Internal to config/ (not installed).
+// The YAML reading helpers of config/: each lookup knows the file and the dotted key path, so
+// that every error names the file, the line, the key, what was expected and what was found.
+// config/yaml_archive.h reads the structs' keys with them; the HAL's joint calibrations, whose
+// keys depend on the actuator, are read with them directly (config/hal_config_loader.cc).
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -77,14 +78,6 @@ class Reader {
     return v;
   }
 
-  bool Bool(const YAML::Node& map, const std::string& path, const char* key) const {
-    const YAML::Node n = Child(map, path, key, "true or false");
-    bool v = false;
-    if (!n.IsScalar() || !YAML::convert<bool>::decode(n, v))
-      Fail(n, Join(path, key), "true or false", Describe(n));
-    return v;
-  }
-
   std::string String(const YAML::Node& map, const std::string& path, const char* key) const {
     const YAML::Node n = Child(map, path, key, "a string");
     if (!n.IsScalar() || n.Scalar().empty()) Fail(n, Join(path, key), "a non-empty string", Describe(n));
@@ -102,14 +95,9 @@ class Reader {
     Fail(map[key], Join(path, key), expected, "'" + v + "'");
   }
 
-  // optional keys: the default when absent
-  double NumberOr(const YAML::Node& map, const std::string& path, const char* key, double d) const {
-    return map[key].IsDefined() ? Number(map, path, key) : d;
-  }
-
   // Unknown keys and keys given twice are errors (yaml-cpp keeps the first of two silently).
   void Keys(const YAML::Node& map, const std::string& path,
-            std::initializer_list<const char*> allowed) const {
+            const std::vector<const char*>& allowed) const {
     std::vector<std::pair<std::string, int>> seen;
     for (const auto& kv : map) {
       const std::string k = kv.first.as<std::string>();

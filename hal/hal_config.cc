@@ -29,6 +29,12 @@ int JointIndex(std::string_view name) noexcept {
   return -1;
 }
 
+std::vector<Choice<int>> JointChoices() {
+  std::vector<Choice<int>> c;
+  for (int i = 0; i < kNumJoints; ++i) c.push_back({kJointNames[static_cast<std::size_t>(i)].data(), i});
+  return c;
+}
+
 HalConfig DefaultHalConfig() {
   HalConfig c;
   for (int leg = 0; leg < kNumLegs; ++leg) {

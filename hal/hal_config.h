@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "hal/calibration.h"
+#include "hal/config_key.h"
 
 namespace hyq::hal {
 
@@ -23,6 +24,8 @@ inline constexpr int kMaxDevicesPerBus = 16;
 std::string_view JointName(int joint) noexcept;
 /// The index of a joint name, or -1.
 int JointIndex(std::string_view name) noexcept;
+/// The joint names with their indices, as a configuration key takes them.
+std::vector<Choice<int>> JointChoices();
 
 enum class DeviceKind : std::uint8_t { kActuator, kImu };
 
@@ -31,6 +34,22 @@ struct DeviceConfig {
   DeviceKind kind = DeviceKind::kActuator;
   std::uint8_t node_id = 1;              // CANopen node id 1..127, unique on its bus
   int joint = -1;                        // joint index for actuators, -1 for the IMU
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(Key("name", &name).Required().Doc("the device's name, e.g. lf_haa"));
+    a->Visit(Key("kind", &kind).Required()
+                 .Choices({{"actuator", DeviceKind::kActuator}, {"imu", DeviceKind::kImu}})
+                 .Doc("a joint's actuator board or the IMU"));
+    a->Visit(Key("node_id", &node_id).Required().In(1, 127).Doc("CANopen node id, unique on its bus"));
+    a->Visit(Key("joint", &joint).Required(kind == DeviceKind::kActuator).Choices(JointChoices())
+                 .Elements("a joint name {lf,rf,lh,rh}_{haa,hfe,kfe}_joint")
+                 .Check([this](const int& j) -> std::optional<Violation> {
+                   if (kind == DeviceKind::kImu && j >= 0) return Violation{"no joint for an IMU"};
+                   return std::nullopt;
+                 })
+                 .Doc("an actuator's joint; none for the IMU"));
+  }
 };
 
 struct BusConfig {
@@ -40,6 +59,20 @@ struct BusConfig {
   std::uint32_t nominal_bitrate = 1'000'000;  // arbitration phase, bit/s
   std::uint32_t data_bitrate = 5'000'000;     // FD data phase, bit/s
   std::vector<DeviceConfig> devices;
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(Key("name", &name).Required().Doc("the bus's name (lf, rf, ...)"));
+    a->Visit(Key("interface", &interface).Required()
+                 .Doc("socketcan:can0, vcan0, udp:GROUP:PORT, ... (docs/drivers.md)"));
+    a->Visit(Key("fd", &fd).Required().Doc("CAN FD with bit-rate switch (the PDO layout needs it)"));
+    a->Visit(Key("nominal_bitrate", &nominal_bitrate).Required().In(10'000, 1'000'000)
+                 .Unit("bit/s").Doc("arbitration phase"));
+    a->Visit(Key("data_bitrate", &data_bitrate).Required(fd).In(10'000, 12'000'000)
+                 .Unit("bit/s").Doc("FD data phase (required with fd)"));
+    a->Visit(Key("devices", &devices).Required().NonEmpty().Elements("devices")
+                 .Doc("the bus's devices"));
+  }
 };
 
 struct TimingConfig {
@@ -63,6 +96,30 @@ struct TimingConfig {
   /// none for master_heartbeat_timeout_s in OPERATIONAL -> 0 N·m, EMCY 0x8130, PRE-OPERATIONAL.
   double master_heartbeat_period_s = 0.05;
   double master_heartbeat_timeout_s = 0.2;
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(RetiredKey{"max_missed_cycles",
+                        "timing.max_held_cycles (renamed: the one hold limit for late or missing "
+                        "inputs, which the safety layer shares)",
+                        "the old name"});
+    a->Visit(Key("cycle_period_s", &cycle_period_s).Unit("s")
+                 .Doc("the SYNC period (the servo file's loop.rate_hz replaces it)"));
+    a->Visit(Key("state_timeout_s", &state_timeout_s).Unit("s")
+                 .Doc("a requested state transition must finish within this"));
+    a->Visit(Key("bringup_timeout_s", &bringup_timeout_s).Unit("s")
+                 .Doc("all devices in the requested state within this"));
+    a->Visit(Key("heartbeat_period_s", &heartbeat_period_s).Unit("s")
+                 .Doc("the boards' producer heartbeat time"));
+    a->Visit(Key("heartbeat_timeout_s", &heartbeat_timeout_s).Unit("s")
+                 .Doc("no heartbeat for this long: the device is lost"));
+    a->Visit(Key("max_held_cycles", &max_held_cycles).In(0, 1000)
+                 .Doc("a late or missing input is held this many cycles in a row, then a fault"));
+    a->Visit(Key("min_valid_cycles_for_op", &min_valid_cycles_for_op).In(1, 100000)
+                 .Doc("consecutive valid cycles in SAFE-OP before enabling"));
+    a->Visit(Key("device_setpoint_timeout_s", &device_setpoint_timeout_s).Unit("s")
+                 .Doc("a board without SYNC or set-point this long stops on its own"));
+  }
 };
 
 struct HalConfig {
@@ -71,6 +128,19 @@ struct HalConfig {
   bool heartbeats_in_worst_case = true;  // count every heartbeat landing in the same cycle
   std::vector<BusConfig> buses;
   std::array<JointCalibration, kNumJoints> joints{};
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit("timing", &timing);
+    a->Visit(Key("max_bus_load", &max_bus_load)
+                 .Doc("refuse a layout whose worst-case load per cycle exceeds this (1 = 100 %)"));
+    a->Visit(Key("heartbeats_in_worst_case", &heartbeats_in_worst_case)
+                 .Doc("count every heartbeat landing in the same cycle"));
+    a->Visit(Key("buses", &buses).Required().NonEmpty().Elements("buses")
+                 .Doc("the CAN buses and their devices"));
+    a->Visit(Key("joints", &joints).Required()
+                 .Doc("each joint's calibration: actuator, encoder, sensor, range (docs/hal.md)"));
+  }
 };
 
 /// HyQ's default layout and calibration: the same numbers as config/hyq_hal.yaml (the tests check

@@ -59,6 +59,13 @@ std::optional<ControllerKind> ParseControllerKind(std::string_view name) noexcep
   return std::nullopt;
 }
 
+std::vector<hal::Choice<ControllerKind>> ControllerKindChoices() {
+  std::vector<hal::Choice<ControllerKind>> c;
+  for (int k = 0; k < kNumControllerKinds; ++k)
+    c.push_back({ToString(static_cast<ControllerKind>(k)), static_cast<ControllerKind>(k)});
+  return c;
+}
+
 const char* ToString(ServoCommand::Kind k) noexcept {
   switch (k) {
     case ServoCommand::Kind::kEnable: return "enable";

@@ -12,8 +12,10 @@
 #include <cstdint>
 #include <optional>
 #include <string_view>
+#include <vector>
 
 #include "dynamics/model.h"
+#include "hal/config_key.h"
 #include "hal/hal_config.h"
 
 namespace hyq::servo {
@@ -92,6 +94,15 @@ inline constexpr int kNumControllerKinds = 5;
 const char* ToString(ControllerKind k) noexcept;
 /// "pid", "noslip", "stage1", "two_stage", "pd_gravity".
 std::optional<ControllerKind> ParseControllerKind(std::string_view name) noexcept;
+/// The same names with their kinds, as a configuration key takes them.
+std::vector<hal::Choice<ControllerKind>> ControllerKindChoices();
+
+// Upper bounds on the configured gains: beyond them the discrete loop at 1 kHz on HyQ's lightest
+// joint (HAA of a leg in the air, ≈ 0.3 kg·m² reflected) would not be stable, or the numbers are
+// typing errors (docs/servo.md, "Gains").
+inline constexpr double kMaxKpTau = 5000.0;  // N·m/rad
+inline constexpr double kMaxKdTau = 200.0;   // N·m·s/rad
+inline constexpr double kMaxKiTau = 5000.0;  // N·m/(rad·s)
 
 /// An operator command, validated by the command channel before it reaches the servo thread.
 struct ServoCommand {

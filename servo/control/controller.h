@@ -46,6 +46,43 @@ struct ControllerConfig {
   double swing_gain_scale = 1.0;      // no-slip, Stage I and two-stage ID
   double pid_swing_gain_scale = 1.0;  // PID
   double pdg_swing_gain_scale = 1.0;  // PD + gravity compensation
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("kind", &kind).Choices(ControllerKindChoices()).Doc("the joint controller"));
+    // one value, 3 (haa, hfe, kfe of every leg) or 12 (lf rf lh rh)
+    a->Section("gains", [this](auto* g) {
+      g->Visit(hal::Key("kp_tau", &feedback.kp_tau).In(0, kMaxKpTau).Unit("N·m/rad")
+                   .Doc("the IDs' PD torque added to the feed-forward"));
+      g->Visit(hal::Key("kd_tau", &feedback.kd_tau).In(0, kMaxKdTau).Unit("N·m·s/rad")
+                   .Doc("... its damping"));
+      // q̈ feedback: discrete stability at the loop rate needs kd·dt < 1 and kp·dt² < 1
+      g->Visit(hal::Key("kp_acc", &feedback.kp_acc).In(0, 0.25).MaxTimesRate(2).Unit("1/s²")
+                   .Doc("the IDs' feedback in the desired accelerations"));
+      g->Visit(hal::Key("kd_acc", &feedback.kd_acc).In(0, 0.5).MaxTimesRate(1).Unit("1/s")
+                   .Doc("... its damping"));
+      g->Visit(hal::Key("pid_kp", &pid.kp).In(0, kMaxKpTau).Unit("N·m/rad").Doc("the PID controller"));
+      g->Visit(hal::Key("pid_ki", &pid.ki).In(0, kMaxKiTau).Unit("N·m/(rad·s)").Doc("the PID's integral"));
+      g->Visit(hal::Key("pid_kd", &pid.kd).In(0, kMaxKdTau).Unit("N·m·s/rad").Doc("the PID's damping"));
+      g->Visit(hal::Key("pid_i_limit", &pid.i_limit).In(0, 1000).Unit("N·m")
+                   .Doc("bound on the PID's integral term"));
+      g->Visit(hal::Key("pdg_kp", &pd_gravity.kp).In(0, kMaxKpTau).Unit("N·m/rad")
+                   .Doc("PD + gravity compensation"));
+      g->Visit(hal::Key("pdg_kd", &pd_gravity.kd).In(0, kMaxKdTau).Unit("N·m·s/rad")
+                   .Doc("... its damping"));
+      g->Visit(hal::Key("ki_tau", &feedback.ki_tau).In(0, kMaxKiTau).Unit("N·m/(rad·s)")
+                   .Doc("integral torque added to the IDs' (against the model's errors)"));
+      g->Visit(hal::Key("i_limit_tau", &feedback.i_limit_tau).In(0, 1000).Unit("N·m")
+                   .Doc("bound on it"));
+      g->Visit(hal::Key("swing_scale", &swing_gain_scale).In(0.05, 1.0)
+                   .Doc("the IDs' kp_tau, kd_tau on a swing leg's joints × this (1: off)"));
+      g->Visit(hal::Key("pid_swing_scale", &pid_swing_gain_scale).In(0.05, 1.0)
+                   .Doc("the same for the PID's kp, kd"));
+      g->Visit(hal::Key("pdg_swing_scale", &pdg_swing_gain_scale).In(0.05, 1.0)
+                   .Doc("the same for PD + g's kp, kd"));
+    });
+    a->Visit("two_stage", &id);  // stage2 is forced off for the stage1 kind
+  }
 };
 
 /// The joint reference of one cycle and the contact situation it assumes.

@@ -46,6 +46,7 @@
 #include <Eigen/QR>
 
 #include "dynamics/cycle_dynamics.h"
+#include "hal/config_key.h"
 #include "qp/solver.h"
 #include "servo/control/contact_model.h"
 
@@ -107,6 +108,35 @@ struct TwoStageSettings {
   /// lost feasibility to rounding (primal residual 1e-7…1e-3): 32 of the 6000 solves of the
   /// hard-problem generator fell back; with 1e-5, none (docs/inverse_dynamics.md, "Fallbacks").
   double qp_proximal_weight = 1e-5;
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("objective", &objective)
+                 .Choices({{"maximum_dissipation", StageOneObjective::kMaximumDissipation},
+                           {"kinetic_energy", StageOneObjective::kKineticEnergy}})
+                 .Doc("Stage I's objective (kinetic_energy: eq 27 as printed)"));
+    a->Visit(hal::Key("horizon_s", &horizon_s).In(0.0, 0.1).Unit("s")
+                 .Doc("h of eqs 5–6; 0: the control period"));
+    a->Visit(hal::Key("project_contact_velocity", &project_contact_velocity)
+                 .Doc("project the measured v onto J_c v = 0 before Stage I"));
+    a->Visit(hal::Key("velocity_consistent_qdd", &velocity_consistent_qdd)
+                 .Doc("make q̈_des velocity-level consistent with the stance contacts"));
+    a->Visit(hal::Key("max_iterations", &max_iterations).In(10, 10000).Doc("Stage I QP"));
+    a->Visit(hal::Key("stage2_max_iterations", &stage2_max_iterations).In(10, 10000).Doc("Stage II QP"));
+    a->Visit(hal::Key("time_budget_us", &time_budget).In(10.0, 1e6).Unit("µs")
+                 .Doc("per QP; past it the fallback chain takes over (absent: none)"));
+    a->Visit(hal::Key("tangent_directions", &tangent_directions).In(4, 4)
+                 .Doc("friction-cone edges r (HyQ's QP is sized for 4)"));
+    // the stage1 controller kind turns Stage II off regardless
+    a->Visit(hal::Key("stage2", &stage2).Doc("false: the paper's \"Stage I only\""));
+    a->Visit(hal::Key("null_space_tolerance", &null_space_tolerance).In(1e-15, 1e-3)
+                 .Doc("relative rank decision for the internal forces"));
+    a->Visit(hal::Key("frictionless_mu", &frictionless_mu).In(0.0, 0.01)
+                 .Doc("a contact with μ at or below this is frictionless"));
+    // Stage II held in Stage I's optimal set (eq 9) with this rounding tolerance
+    a->Visit(hal::Key("optimal_set_tolerance", &optimal_set_tolerance).In(0.0, 1.0)
+                 .Doc("Stage II inside Stage I's optimum (eq 9) within this; 1 drops the row"));
+  }
 };
 
 /// Replaces the stance legs' part of *qdd_des by its Euclidean projection onto the joint

@@ -32,6 +32,7 @@
 
 #include "dynamics/cycle_dynamics.h"
 #include "dynamics/model.h"
+#include "hal/config_key.h"
 
 namespace hyq::servo {
 
@@ -40,6 +41,18 @@ struct DisturbanceObserverConfig {
   double bandwidth_hz = 3.0;   // of the residual's low-pass
   double max_force_N = 300.0;  // clamp of the estimate's force part (per axis, base rows 0-2)
   double max_torque_Nm = 100.0;  // ... and of its moment part (rows 3-5)
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("enabled", &enabled).Doc("off: the controller uses the nominal model"));
+    // the low-pass must stay well below the loop's Nyquist rate
+    a->Visit(hal::Key("bandwidth_hz", &bandwidth_hz).In(0.05, 0.1).MaxTimesRate(1).Unit("Hz")
+                 .Doc("of the residual's low-pass"));
+    a->Visit(hal::Key("max_force_N", &max_force_N).In(0.0, 2000.0).Unit("N")
+                 .Doc("clamp of the estimate's force, per axis (world)"));
+    a->Visit(hal::Key("max_torque_Nm", &max_torque_Nm).In(0.0, 1000.0).Unit("N·m")
+                 .Doc("clamp of its moment, per axis (base frame)"));
+  }
 };
 
 class DisturbanceObserver {

@@ -35,6 +35,18 @@ struct EstimatorConfig {
   double tilt_correction_gain = 0.5;    // 1/s, accelerometer tilt correction (complementary)
   double velocity_blend = 0.1;          // per cycle: weight of the kinematic velocity vs IMU
   double imu_gravity_window_m_s2 = 1.5; // use the accelerometer for tilt when |a| ≈ g ± this
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("stance_force_N", &stance_force_N).In(0.0, 2000.0).Unit("N")
+                 .Doc("a scheduled-stance foot carries at least this"));
+    a->Visit(hal::Key("tilt_correction_gain", &tilt_correction_gain).In(0.0, 100.0).Unit("1/s")
+                 .Doc("accelerometer tilt correction (complementary filter)"));
+    a->Visit(hal::Key("velocity_blend", &velocity_blend).In(0.0, 1.0)
+                 .Doc("per cycle: weight of the kinematic velocity against the IMU's"));
+    a->Visit(hal::Key("imu_gravity_window_m_s2", &imu_gravity_window_m_s2).In(0.0, 9.81)
+                 .Unit("m/s²").Doc("the accelerometer corrects tilt when |a| ≈ g ± this"));
+  }
 };
 
 enum class [[nodiscard]] EstimatorStatus : std::uint8_t {

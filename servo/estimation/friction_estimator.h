@@ -28,10 +28,13 @@
 
 #include <array>
 #include <cstdint>
+#include <optional>
+#include <string>
 
 #include <Eigen/Dense>
 
 #include "dynamics/cycle_dynamics.h"
+#include "hal/config_key.h"
 #include "servo/common/servo_types.h"
 
 namespace hyq::servo {
@@ -51,6 +54,46 @@ struct FrictionEstimatorConfig {
   double slip_filter = 0.2;        // weight of each further slipping cycle's ρ in μ̂
   double confidence_time_s = 0.5;  // a guessed rise halves the confidence in ln 2 × this
   double memory_radius_m = 0.2;    // a footfall this close to a remembered place starts there
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("enabled", &enabled)
+                 .Doc("true: Stage I gets (1 − margin) μ̂ instead of contact.mu"));
+    a->Visit(hal::Key("prior_mu", &prior_mu).In(0.0, 2.0)
+                 .Doc("a footfall on ground not seen before starts here"));
+    a->Visit(hal::Key("min_mu", &min_mu).In(0.0, 2.0)
+                 .Check([this](const double& v) -> std::optional<hal::Violation> {
+                   if (v > prior_mu) return hal::Violation{"at most prior_mu (" + std::to_string(prior_mu) + ")"};
+                   return std::nullopt;
+                 })
+                 .Doc("floor of the estimate and of what Stage I gets (at most prior_mu)"));
+    a->Visit(hal::Key("margin", &margin).In(0.0, 0.9).Doc("Stage I gets (1 − margin) μ̂"));
+    a->Visit(hal::Key("min_normal_N", &min_normal_N).In(1.0, 5000.0).Unit("N")
+                 .Doc("a foot carrying less proves nothing"));
+    a->Visit(hal::Key("slip_speed_m_s", &slip_speed_m_s).In(1e-4, 10.0).Unit("m/s")
+                 .Doc("tangential contact-point speed that is a slip ..."));
+    a->Visit(hal::Key("slip_cycles", &slip_cycles).In(1, 1000)
+                 .Doc("... for this many cycles in a row ..."));
+    a->Visit(hal::Key("slip_alignment", &slip_alignment).In(-1.0, 1.0)
+                 .Doc("... with −f_t·v_t at least this × |f_t||v_t|"));
+    a->Visit(hal::Key("touchdown_blank_s", &touchdown_blank_s).In(0.0, 1.0).Unit("s")
+                 .Doc("a footfall's first this-many seconds prove nothing"));
+    a->Visit(hal::Key("stick_speed_m_s", &stick_speed_m_s).In(0.0, 10.0).Unit("m/s")
+                 .Check([this](const double& v) -> std::optional<hal::Violation> {
+                   if (v > slip_speed_m_s)
+                     return hal::Violation{"at most slip_speed_m_s (" + std::to_string(slip_speed_m_s) + ")"};
+                   return std::nullopt;
+                 })
+                 .Doc("below this the foot sticks (at most slip_speed_m_s)"));
+    a->Visit(hal::Key("rise_per_s", &rise_per_s).In(0.0, 100.0).Unit("1/s")
+                 .Doc("a sticking foot's μ̂ rises towards the prior this fast"));
+    a->Visit(hal::Key("slip_filter", &slip_filter).In(0.0, 1.0)
+                 .Doc("weight of each further slipping cycle's ratio in μ̂"));
+    a->Visit(hal::Key("confidence_time_s", &confidence_time_s).In(1e-3, 1e4).Unit("s")
+                 .Doc("a guessed rise halves the confidence in ln 2 × this"));
+    a->Visit(hal::Key("memory_radius_m", &memory_radius_m).In(0.0, 10.0).Unit("m")
+                 .Doc("a footfall this close to a remembered place starts from its estimate"));
+  }
 };
 
 /// What the estimator sees of one foot in one cycle (world frame, flat ground: normal +z).

@@ -20,6 +20,7 @@
 #include <string>
 
 #include "dynamics/leg_kinematics.h"
+#include "hal/config_key.h"
 #include "servo/control/controller.h"
 
 namespace hyq::servo {
@@ -58,6 +59,31 @@ struct TrotParams {
   // steering (SetVelocity): vx forward, vy left (heading frame), wz yaw rate
   std::array<double, 3> max_velocity{0.4, 0.2, 0.5};      // m/s, m/s, rad/s: commands clamped
   std::array<double, 3> max_acceleration{0.5, 0.3, 0.8};  // m/s², m/s², rad/s²: ramp bound
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("step_frequency_Hz", &step_frequency_Hz).In(0.2, 4.0).Unit("Hz")
+                 .Doc("gait cycles per second"));
+    a->Visit(hal::Key("step_height_m", &step_height_m).In(0.0, 0.2).Unit("m").Doc("swing foot lift"));
+    a->Visit(hal::Key("stride_m", &stride_m).In(-0.4, 0.4).Unit("m")
+                 .Doc("forward distance per gait cycle (speed = stride × frequency)"));
+    a->Visit(hal::Key("duty_factor", &duty_factor).In(0.5, 0.95)
+                 .Doc("fraction of the cycle a foot is in stance"));
+    a->Visit(hal::Key("start_delay_s", &start_delay_s).In(0.0, 60.0).Unit("s").Doc("stand still first"));
+    a->Visit(hal::Key("ramp_s", &ramp_s).In(0.0, 60.0).Unit("s")
+                 .Doc("the speed ramps up smoothly over this time"));
+    a->Visit(hal::Key("max_velocity", &max_velocity).In(0.0, 1.0).MaxEach({1.0, 0.5, 1.5})
+                 .Elements("[vx, vy, wz]").Unit("m/s, m/s, rad/s")
+                 .Doc("steering commands are clamped to these"));
+    a->Visit(hal::Key("max_acceleration", &max_acceleration).In(0.0, 5.0).MaxEach({5.0, 5.0, 10.0})
+                 .Elements("[vx, vy, wz]").Unit("m/s², m/s², rad/s²")
+                 .Check([](const std::array<double, 3>& v) -> std::optional<hal::Violation> {
+                   for (int i = 0; i < 3; ++i)
+                     if (!(v[static_cast<std::size_t>(i)] > 0.0)) return hal::Violation{"a number > 0", i};
+                   return std::nullopt;
+                 })
+                 .Doc("the steering ramps' bound (each > 0)"));
+  }
 };
 
 /// One axis of the commanded base velocity: a cubic Hermite ramp from (v0, a0) at t0 to v1
@@ -79,6 +105,15 @@ struct FigureEightParams {
   double amplitude_y_m = 0.04;     // sideways
   double start_delay_s = 0.5;
   double ramp_s = 0.5;             // amplitude envelope
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("period_s", &period_s).In(0.5, 60.0).Unit("s").Doc("one figure eight"));
+    a->Visit(hal::Key("amplitude_x_m", &amplitude_x_m).In(0.0, 0.15).Unit("m").Doc("forward-backward"));
+    a->Visit(hal::Key("amplitude_y_m", &amplitude_y_m).In(0.0, 0.15).Unit("m").Doc("sideways"));
+    a->Visit(hal::Key("start_delay_s", &start_delay_s).In(0.0, 60.0).Unit("s").Doc("stand still first"));
+    a->Visit(hal::Key("ramp_s", &ramp_s).In(0.0, 60.0).Unit("s").Doc("amplitude envelope"));
+  }
 };
 
 class Reference {

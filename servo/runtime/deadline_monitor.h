@@ -10,6 +10,7 @@
 
 #include <cstdint>
 
+#include "hal/config_key.h"
 #include "servo/runtime/fault.h"
 
 namespace hyq::servo {
@@ -18,6 +19,16 @@ struct DeadlineConfig {
   double budget_fraction = 0.9;   // cycle work (read .. write) must end within this × period
   int max_consecutive_misses = 5; // this many misses in a row → DAMPING (reason kDeadlineMiss)
   bool stop_in_lockstep = false;  // ... under the lock-step clock too (otherwise only counted)
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("budget_fraction", &budget_fraction).In(0.05, 1.0)
+                 .Doc("wake-up latency + cycle work (read .. write) within this × the period"));
+    a->Visit(hal::Key("max_consecutive_misses", &max_consecutive_misses).In(1, 1000)
+                 .Doc("this many misses in a row → DAMPING (reason deadline_miss)"));
+    a->Visit(hal::Key("stop_in_lockstep", &stop_in_lockstep)
+                 .Doc("... under the lock-step clock too (otherwise only counted)"));
+  }
 };
 
 class DeadlineMonitor {

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "hal/config_key.h"
+
 namespace hyq::servo {
 
 /// RealtimeConfig::cpu: do not pin, or pin where two cores exist (ResolveCpu).
@@ -20,6 +22,18 @@ struct RealtimeConfig {
                                   // see ResolveCpu
   bool lock_memory = true;        // mlockall(MCL_CURRENT | MCL_FUTURE)
   std::uint32_t prefault_stack_kib = 256;  // stack touched before the first cycle
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("enabled", &enabled)
+                 .Doc("try SCHED_FIFO, affinity and mlockall (warn when refused)"));
+    a->Visit(hal::Key("priority", &priority).In(1, 99).Doc("SCHED_FIFO priority of the servo thread"));
+    a->Visit(hal::Key("cpu", &cpu).In(-1, 1023).Choices({{"auto", kAutoCpu}})
+                 .Doc("pin the servo thread to this CPU; -1: do not pin; auto: where two cores exist"));
+    a->Visit(hal::Key("lock_memory", &lock_memory).Doc("mlockall(MCL_CURRENT | MCL_FUTURE)"));
+    a->Visit(hal::Key("prefault_stack_kib", &prefault_stack_kib).In(0, 8192).Unit("KiB")
+                 .Doc("stack touched before the first cycle"));
+  }
 };
 
 /// What the real-time set-up of the calling thread achieved; `warnings` name each refused

@@ -86,8 +86,8 @@ class ServoLoop {
   /// what has arrived.
   void SetAnswerWait(std::span<hal::LockstepChannel* const> channels) noexcept {
     answer_channels_ = channels;
-    answer_wait_ns_ = static_cast<std::int64_t>(config_.answer_wait_s * 1e9);
-    period_ns_ = static_cast<std::int64_t>(1e9 / config_.rate_hz);
+    answer_wait_ns_ = static_cast<std::int64_t>(config_.answer_wait_s() * 1e9);
+    period_ns_ = static_cast<std::int64_t>(1e9 / config_.rate_hz());
   }
 
   /// A controlled stop (from any thread, e.g. a signal handler's thread): damping if ACTIVE,

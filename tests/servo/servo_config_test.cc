@@ -116,11 +116,11 @@ TEST(ServoConfigYaml, EveryDeadlineKeyReachesDeadlineConfig) {
 // the real-time read's wait for answers still owed, in periods (at most half of one),
 // so that it scales with the rate
 TEST(ServoConfigYaml, AnswerWaitIsAFractionOfThePeriod) {
-  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0.25\n").answer_wait_s, 250e-6);
-  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 800\n  answer_wait_periods: 0.25\n").answer_wait_s, 312.5e-6);
-  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 500\n").answer_wait_s, 600e-6);  // the default 0.3
-  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0\n").answer_wait_s, 0.0);
-  EXPECT_DOUBLE_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").answer_wait_s, 300e-6);
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0.25\n").answer_wait_s(), 250e-6);
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 800\n  answer_wait_periods: 0.25\n").answer_wait_s(), 312.5e-6);
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 500\n").answer_wait_s(), 600e-6);  // the default 0.3
+  EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0\n").answer_wait_s(), 0.0);
+  EXPECT_DOUBLE_EQ(config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").answer_wait_s(), 300e-6);
   try {
     (void)Parse("loop:\n  answer_wait_periods: 0.6\n");
     ADD_FAILURE() << "no error";
@@ -384,7 +384,7 @@ TEST(ServoConfigYaml, BadValuesNameTheKey) {
   EXPECT_NE(ctrl.find("commands.allowed_controllers[1]"), std::string::npos) << ctrl;
   EXPECT_NE(ctrl.find("warp"), std::string::npos) << ctrl;
 
-  // finding 8: URLs liblcm would take or fail on late, and channel names it reads as patterns
+  // URLs liblcm would take or fail on late, and channel names it reads as patterns
   const struct {
     const char* yaml;
     const char* message;

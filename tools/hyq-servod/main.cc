@@ -272,7 +272,7 @@ int main(int argc, char** argv) {
   }
   if (opt.check) {
     std::printf("%s: OK (%s, %g Hz, %s clock, %zu buses, reference %s, URDF %s)\n",
-                opt.config.c_str(), hyq::servo::ToString(config.controller.kind), config.rate_hz,
+                opt.config.c_str(), hyq::servo::ToString(config.controller.kind), config.rate_hz(),
                 hyq::servo::ToString(config.clock), config.hal.buses.size(),
                 config.reference == hyq::servo::Reference::Kind::kTrot ? "trot"
                 : config.reference == hyq::servo::Reference::Kind::kFigureEight ? "figure_eight"
@@ -291,7 +291,7 @@ int main(int argc, char** argv) {
     for (const auto& b : config.hal.buses) {
       auto ch = hyq::drivers::OpenChannel(hyq::drivers::SpecForInterface(b.interface));
       // lock-step waits for every answer; real time waits for late ones (loop.answer_wait_periods)
-      if (config.clock == hyq::servo::ClockMode::kLockstep || config.answer_wait_s > 0.0) {
+      if (config.clock == hyq::servo::ClockMode::kLockstep || config.answer_wait_s() > 0.0) {
         auto ls = std::make_unique<hyq::servo::LockstepChannel>(std::move(ch));
         lockstep.push_back(ls.get());
         ch = std::move(ls);
@@ -310,7 +310,7 @@ int main(int argc, char** argv) {
   }
   if (!opt.quiet)
     std::fprintf(stderr, "hyq-servod: %s, %g Hz, %s clock, %s; bringing %zu buses up\n",
-                 hyq::servo::ToString(config.controller.kind), config.rate_hz,
+                 hyq::servo::ToString(config.controller.kind), config.rate_hz(),
                  hyq::servo::ToString(config.clock),
                  telemetry ? config.telemetry.lcm_url.c_str() : "no telemetry",
                  config.hal.buses.size());
