@@ -5,7 +5,6 @@
 #include <sstream>
 #include <stdexcept>
 #include <vector>
-#include <cstdlib>
 
 namespace hyq::sim {
 namespace {
@@ -62,76 +61,6 @@ PlantProfile ProfileByName(std::string_view name, const std::string& what) {
   if (name == "realistic") return PlantProfile::Realistic();
   throw std::invalid_argument(what + ": expected a plant profile ideal or realistic, found '" +
                               std::string(name) + "'");
-}
-
-namespace {
-
-[[noreturn]] void BadFlag(std::string_view flag, const std::string& expected, const std::string& found) {
-  throw std::invalid_argument(std::string(flag) + ": expected " + expected + ", found '" + found + "'");
-}
-
-double FlagNumber(std::string_view flag, const std::string& v, const std::string& expected) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end != '\0' || !std::isfinite(x)) BadFlag(flag, expected, v);
-  return x;
-}
-
-std::uint64_t FlagSeed(std::string_view flag, const std::string& v, const std::string& expected) {
-  char* end = nullptr;
-  const unsigned long long s = std::strtoull(v.c_str(), &end, 10);
-  if (v.empty() || *end != '\0' || v[0] == '-' || v[0] == '+') BadFlag(flag, expected, v);
-  return s;
-}
-
-
-}  // namespace
-
-bool ApplyProfileFlag(std::string_view flag, const std::string& v, PlantProfile* p) {
-  if (flag == "--payload") {
-    const std::string expected = "KG,X,Y,Z (kg >= 0; m in the trunk frame, |X|,|Y|,|Z| <= 2) or off";
-    if (v == "off") {
-      p->model_error.payload_kg = 0.0;
-      return true;
-    }
-    const auto f = SplitCommas(v);
-    if (f.size() != 4) BadFlag(flag, expected, v);
-    const double kg = FlagNumber(flag, f[0], expected);
-    Eigen::Vector3d pos;
-    for (int k = 0; k < 3; ++k) pos(k) = FlagNumber(flag, f[static_cast<std::size_t>(k + 1)], expected);
-    if (kg < 0 || pos.cwiseAbs().maxCoeff() > 2.0) BadFlag(flag, expected, v);
-    p->model_error.payload_kg = kg;
-    p->model_error.p_BoP_B = pos;
-  } else if (flag == "--link-errors") {
-    p->model_error.link_errors = v != "off";
-    if (p->model_error.link_errors) p->model_error.seed = FlagSeed(flag, v, "a seed (unsigned integer) or off");
-  } else if (flag == "--hydraulics" || flag == "--joint-friction") {
-    if (v != "on" && v != "off") BadFlag(flag, "on or off", v);
-    if (flag == "--hydraulics") p->hydraulics = v == "on";
-    else p->joint_friction = v == "on" ? PlantProfile::Realistic().joint_friction : JointFrictionConfig{};
-  } else if (flag == "--delay-cycles") {
-    const std::string expected = "an integer 0.." + std::to_string(kMaxDelayCycles);
-    const double k = FlagNumber(flag, v, expected);
-    if (k < 0 || k > kMaxDelayCycles || k != std::floor(k)) BadFlag(flag, expected, v);
-    p->delay_cycles = static_cast<int>(k);
-  } else if (flag == "--load-cell-bias") {
-    const double b = FlagNumber(flag, v, "N·m >= 0");
-    if (b < 0) BadFlag(flag, "N·m >= 0", v);
-    p->load_cell_bias_Nm = b;
-  } else if (flag == "--imu-bias") {
-    const std::string expected = "G,A (rad/s, m/s², >= 0)";
-    const auto f = SplitCommas(v);
-    if (f.size() != 2) BadFlag(flag, expected, v);
-    const double g = FlagNumber(flag, f[0], expected), a = FlagNumber(flag, f[1], expected);
-    if (g < 0 || a < 0) BadFlag(flag, expected, v);
-    p->gyro_bias_rad_s = g;
-    p->accel_bias_m_s2 = a;
-  } else if (flag == "--bias-seed") {
-    p->bias_seed = FlagSeed(flag, v, "an unsigned integer");
-  } else {
-    return false;
-  }
-  return true;
 }
 
 void PlantProfile::ApplyTo(PlantConfig* pc) const {
@@ -266,17 +195,6 @@ void Actuation::Step(const dynamics::VectorJ& u, const dynamics::VectorJ& q,
       out = applied_(j);
     }
     measured_(j) = out + bias_[static_cast<std::size_t>(j)];
-  }
-}
-
-std::vector<std::string> SplitCommas(const std::string& s) {
-  std::vector<std::string> out;
-  std::size_t start = 0;
-  for (;;) {
-    const std::size_t c = s.find(',', start);
-    out.push_back(s.substr(start, c - start));
-    if (c == std::string::npos) return out;
-    start = c + 1;
   }
 }
 

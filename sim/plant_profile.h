@@ -62,16 +62,6 @@ struct PlantProfile {
 /// what was found.
 PlantProfile ProfileByName(std::string_view name, const std::string& what);
 
-/// One factor's command-line flag (hyq-sim, hyq-experiment) applied to `p`: --payload KG,X,Y,Z|off,
-/// --link-errors SEED|off, --hydraulics on|off, --joint-friction on|off (realistic's levels),
-/// --delay-cycles K, --load-cell-bias NM, --imu-bias G,A, --bias-seed N. Returns false for
-/// another flag; throws std::invalid_argument naming the flag, what was expected and what was
-/// found.
-bool ApplyProfileFlag(std::string_view flag, const std::string& value, PlantProfile* p);
-
-/// "a,b,,c" → {"a", "b", "", "c"} (the command-line flags' lists).
-std::vector<std::string> SplitCommas(const std::string& s);
-
 /// The actuation path from the set-points to the torque the plant applies, and the torque the
 /// load cells report: delay (a ring of k + 1 slots), then per joint either the hydraulic
 /// actuator with its torque loop, or the first-order lag of SimulatedRobot's eq. (1) with its

@@ -5,8 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <initializer_list>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace hyq::cli {
@@ -98,6 +100,7 @@ void ExpectUsageError(std::initializer_list<const char*> args, const std::string
           if (cl.Flag("--rate")) (void)cl.Number(0.2, 20.0);
           else if (cl.Flag("--port")) (void)cl.Integer(0, 65535, "a port number 0..65535");
           else if (cl.Flag("--quiet")) continue;
+          else if (cl.Flag("--bus")) (void)cl.KeyValue("BUS=SPEC");
           else if (cl.Flag("--mode")) {
             const std::string v = cl.Value();
             if (v != "fast") cl.BadValue("fast", v);
@@ -119,7 +122,30 @@ TEST(CommandLine, UsageErrorsNameTheFlagTheExpectationAndTheFinding) {
   ExpectUsageError({"--mode", "slow"}, "--mode: expected fast, found 'slow'");
   ExpectUsageError({"--quiet=1"}, "--quiet: expected no value, found '1'");
   ExpectUsageError({"--frobnicate"}, "unknown option '--frobnicate'");
+  ExpectUsageError({"--bus", "lf"}, "--bus: expected BUS=SPEC, found 'lf'");
+  ExpectUsageError({"--bus", "=udp::1"}, "--bus: expected BUS=SPEC, found '=udp::1'");
+  ExpectUsageError({"--bus=lf="}, "--bus: expected BUS=SPEC, found 'lf='");
   ExpectUsageError({"fast"}, "VY: expected a number, found 'fast'");
+}
+
+TEST(CommandLine, KeyValueCutsAtTheFirstEquals) {
+  const Argv a{"--bus", "lf=udp::43101", "--bus=rh=socketcan:vcan0=x"};
+  CommandLine cl = Make(a);
+  std::vector<std::pair<std::string, std::string>> buses;
+  while (cl.Next())
+    if (cl.Flag("--bus")) buses.push_back(cl.KeyValue("BUS=SPEC"));
+  EXPECT_EQ(buses, (std::vector<std::pair<std::string, std::string>>{
+                       {"lf", "udp::43101"}, {"rh", "socketcan:vcan0=x"}}));
+}
+
+TEST(CommandLine, AnOptionalValueIsTheNextArgumentUnlessAnOption) {
+  const Argv a{"--url", "udpm://x", "--url", "--quiet", "--url=-y", "--url"};
+  CommandLine cl = Make(a);
+  std::vector<std::optional<std::string>> urls;
+  while (cl.Next())
+    if (cl.Flag("--url")) urls.push_back(cl.OptionalValue());
+  EXPECT_EQ(urls, (std::vector<std::optional<std::string>>{"udpm://x", std::nullopt, "-y",
+                                                           std::nullopt}));
 }
 
 TEST(CommandLine, TextChecksItsLength) {

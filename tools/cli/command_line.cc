@@ -96,6 +96,19 @@ std::string CommandLine::Value() {
   return args_[next_++];
 }
 
+std::optional<std::string> CommandLine::OptionalValue() {
+  if (inline_value_) return Value();
+  if (next_ >= args_.size() || args_[next_].starts_with('-')) return std::nullopt;
+  return args_[next_++];
+}
+
+std::pair<std::string, std::string> CommandLine::KeyValue(std::string_view expected) {
+  const std::string v = Value();
+  const std::size_t eq = v.find('=');
+  if (eq == std::string::npos || eq == 0 || eq + 1 == v.size()) BadValue(expected, v);
+  return {v.substr(0, eq), v.substr(eq + 1)};
+}
+
 std::string CommandLine::Text(std::size_t min_bytes, std::size_t max_bytes) {
   std::string v = Value();
   if (v.size() < min_bytes || v.size() > max_bytes)

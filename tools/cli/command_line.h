@@ -20,6 +20,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <vector>
 
 namespace hyq::cli {
@@ -55,6 +56,12 @@ class CommandLine {
   /// The current flag's value: after its '=', else the next argument.
   /// Usage error "FLAG: expected a value, found 'end of arguments'" when there is none.
   std::string Value();
+  /// The current flag's optional value: after its '=', else the next argument unless there is
+  /// none or it begins with '-' (another option; such a value needs the --flag=VALUE form).
+  std::optional<std::string> OptionalValue();
+  /// Value() as KEY=VALUE cut at its first '=', both parts non-empty; `expected` names the form
+  /// ("BUS=SPEC").
+  std::pair<std::string, std::string> KeyValue(std::string_view expected);
   /// Value() of min_bytes..max_bytes bytes ("FLAG: expected 1..63 bytes, found 64").
   std::string Text(std::size_t min_bytes, std::size_t max_bytes);
   /// Value() as a finite number in [lo, hi]; `expected` replaces "a number in [lo, hi]".

@@ -17,6 +17,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "config/hal_config_loader.h"
@@ -61,10 +62,8 @@ Options Parse(int argc, char** argv) {
     if (cl.Flag("--loopback")) {
       o.loopback = true;
     } else if (cl.Flag("--interface")) {
-      const std::string v = cl.Value();
-      const auto eq = v.find('=');
-      if (eq == std::string::npos || eq == 0) cl.BadValue("BUS=SPEC", v);
-      o.interfaces[v.substr(0, eq)] = v.substr(eq + 1);
+      auto [bus, spec] = cl.KeyValue("BUS=SPEC");
+      o.interfaces[std::move(bus)] = std::move(spec);
     } else if (cl.Flag("--config")) {
       o.config = cl.Value();
     } else if (cl.Flag("--seconds")) {

@@ -20,7 +20,9 @@
 #include "config/servo_config_loader.h"
 #include "dynamics/urdf_loader.h"
 #include "servo/control/id_record.h"
+#include "tools/cli/command_line.h"
 #include "tools/experiment/experiment.h"
+#include "tools/plant_flags/plant_profile_flags.h"
 
 namespace {
 
@@ -274,87 +276,60 @@ void WriteTables(nlohmann::json& results, const std::string& out_dir) {
   WritePatchTable(results, md);
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
-  std::vector<std::string> wanted;
+// The command line: what to run, where, on which plant, with which gains.
+struct Options {
+  bool list = false;  // --list: the scenarios' names, nothing run
+  std::vector<const Scenario*> run;
   std::string out_dir = "experiments";
-  bool all = false;
   bool record_id = false;
   sim::PlantProfile profile;
-  std::vector<std::pair<std::string, std::string>> profile_flags;
   std::string gains_source = "tuned";
-  const auto scenarios = Scenarios();
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    if (a == "--help" || a == "-h") {
-      std::fputs(kUsage.data(), stdout);
-      return 0;
-    } else if (a == "--list") {
-      for (const auto& s : scenarios) std::printf("%s\n", s.name.c_str());
-      return 0;
-    } else if (a == "--all") {
-      all = true;
-    } else if (a == "--patch") {
+  std::optional<servo::ControllerConfig> gains;  // none: untuned
+};
+
+Options Parse(cli::CommandLine& cl, const std::vector<Scenario>& scenarios) {
+  Options o;
+  bool all = false;
+  std::vector<std::string> wanted;
+  cli::PlantProfileFlags plant(/*imu=*/false);
+  while (cl.Next()) {
+    if (plant.Read(cl)) continue;
+    if (cl.Flag("--list")) o.list = true;
+    else if (cl.Flag("--all")) all = true;
+    else if (cl.Flag("--patch")) {
       for (const auto& s : scenarios)
-        if (s.name.rfind("patch_", 0) == 0) wanted.push_back(s.name);
-    } else if (a == "--record-id") {
-      record_id = true;
-    } else if (a == "--scenario" && i + 1 < argc) {
-      wanted.emplace_back(argv[++i]);
-    } else if (a == "--profile" && i + 1 < argc) {
-      try {
-        profile = sim::ProfileByName(argv[++i], "--profile");
-      } catch (const std::invalid_argument& e) {
-        std::fprintf(stderr, "hyq-experiment: %s\n", e.what());
-        return 2;
-      }
-    } else if ((a == "--payload" || a == "--link-errors" || a == "--hydraulics" ||
-                a == "--joint-friction" || a == "--delay-cycles" || a == "--load-cell-bias" ||
-                a == "--bias-seed") && i + 1 < argc) {
-      profile_flags.emplace_back(std::string(a), argv[++i]);
-    } else if (a == "--out" && i + 1 < argc) {
-      out_dir = argv[++i];
-    } else if (a == "--gains" && i + 1 < argc) {
-      gains_source = argv[++i];
-    } else {
-      std::fprintf(stderr, "hyq-experiment: unknown or incomplete option '%s'\n\n%s", argv[i],
-                   kUsage.data());
-      return 2;
-    }
+        if (s.name.starts_with("patch_")) wanted.push_back(s.name);
+    } else if (cl.Flag("--record-id")) o.record_id = true;
+    else if (cl.Flag("--scenario")) {
+      const std::string v = cl.Value();
+      if (std::none_of(scenarios.begin(), scenarios.end(), [&](const Scenario& s) { return s.name == v; }))
+        cl.BadValue("a scenario --list shows", v);
+      wanted.push_back(v);
+    } else if (cl.Flag("--out")) o.out_dir = cl.Value();
+    else if (cl.Flag("--gains")) o.gains_source = cl.Value();
+    else cl.Unknown();
   }
-  for (const auto& [flag, value] : profile_flags) {
-    try {
-      sim::ApplyProfileFlag(flag, value, &profile);
-    } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "hyq-experiment: %s\n", e.what());
-      return 2;
-    }
-  }
-  std::vector<const Scenario*> run;
+  if (o.list) return o;
   for (const auto& s : scenarios)
-    if (all || std::find(wanted.begin(), wanted.end(), s.name) != wanted.end()) run.push_back(&s);
-  for (const auto& w : wanted)
-    if (std::none_of(scenarios.begin(), scenarios.end(), [&](const Scenario& s) { return s.name == w; })) {
-      std::fprintf(stderr, "hyq-experiment: unknown scenario '%s' (--list shows them)\n", w.c_str());
-      return 2;
-    }
-  if (run.empty()) {
-    std::fprintf(stderr, "hyq-experiment: nothing to run (--all or --scenario NAME)\n\n%s",
-                 kUsage.data());
-    return 2;
-  }
-  // the feedback gains every scenario's controller runs with (--gains)
-  std::optional<servo::ControllerConfig> gains;
-  if (gains_source != "untuned") {
-    const std::string path = gains_source == "tuned" ? HYQ_DEFAULT_SERVO_CONFIG : gains_source;
+    if (all || std::find(wanted.begin(), wanted.end(), s.name) != wanted.end()) o.run.push_back(&s);
+  if (o.run.empty()) cl.Fail("nothing to run: expected --all, --patch or --scenario NAME");
+  o.profile = plant.Profile();
+  // the feedback gains every scenario's controller runs with
+  if (o.gains_source != "untuned") {
+    const std::string path = o.gains_source == "tuned" ? HYQ_DEFAULT_SERVO_CONFIG : o.gains_source;
     try {
-      gains = config::LoadServoConfig(path).controller;
+      o.gains = config::LoadServoConfig(path).controller;
     } catch (const std::exception& e) {
-      std::fprintf(stderr, "hyq-experiment: --gains %s: %s\n", gains_source.c_str(), e.what());
-      return 2;
+      cl.Fail("--gains " + o.gains_source + ": " + e.what());
     }
   }
+  return o;
+}
+
+int Run(const Options& o) {
+  const std::vector<const Scenario*>& run = o.run;
+  const std::string& out_dir = o.out_dir;
+  const std::optional<servo::ControllerConfig>& gains = o.gains;
   const dynamics::Model model = dynamics::LoadModelFromUrdf(HYQ_DEFAULT_URDF);
   const hal::HalConfig hal_config = config::LoadHalConfig(HYQ_DEFAULT_HAL_CONFIG);
   std::filesystem::create_directories(out_dir);
@@ -364,7 +339,7 @@ int main(int argc, char** argv) {
     const Scenario& s = *run[i];
     const auto t0 = std::chrono::steady_clock::now();
     experiment::ExperimentConfig cfg = s.cfg;
-    cfg.record_id_inputs = record_id && cfg.controller.kind != ControllerKind::kPid;
+    cfg.record_id_inputs = o.record_id && cfg.controller.kind != ControllerKind::kPid;
     if (gains) {
       cfg.controller.pid = gains->pid;
       cfg.controller.feedback = gains->feedback;
@@ -374,7 +349,7 @@ int main(int argc, char** argv) {
       cfg.controller.pid_swing_gain_scale = gains->pid_swing_gain_scale;
       cfg.controller.pdg_swing_gain_scale = gains->pdg_swing_gain_scale;
     }
-    cfg.profile = profile;
+    cfg.profile = o.profile;
     cfg.joints.assign(hal_config.joints.begin(), hal_config.joints.end());
     const auto r = experiment::RunExperiment(model, cfg, [&](double f) {
       std::fprintf(stderr, "\r[%zu/%zu] %-26s %3.0f %%", i + 1, run.size(), s.name.c_str(), 100 * f);
@@ -415,8 +390,8 @@ int main(int argc, char** argv) {
                        {"torque_total_variation_Nm", r.torque_total_variation},
                        {"fallbacks", {{"stage1_failed", r.fallbacks.stage1_failed}, {"stage2_failed", r.fallbacks.stage2_failed}}},
                        {"realtime_factor", s.cfg.duration_s / wall},
-                       {"profile", nlohmann::json::parse(profile.Json())},
-                       {"gains", gains_source}};
+                       {"profile", nlohmann::json::parse(o.profile.Json())},
+                       {"gains", o.gains_source}};
     if (!s.cfg.patches.empty()) {
       nlohmann::json settling = nlohmann::json::array();
       for (const auto& st : r.settling)
@@ -441,4 +416,17 @@ int main(int argc, char** argv) {
                std::chrono::duration<double>(std::chrono::steady_clock::now() - t_all).count(),
                out_dir.c_str());
   return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<Scenario> scenarios = Scenarios();
+  cli::CommandLine cl(argc, argv, "hyq-experiment", std::string(kUsage));
+  const Options o = Parse(cl, scenarios);
+  if (o.list) {
+    for (const auto& s : scenarios) std::printf("%s\n", s.name.c_str());
+    return 0;
+  }
+  return cli::Run("hyq-experiment", [&] { return Run(o); });
 }

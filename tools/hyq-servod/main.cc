@@ -18,6 +18,7 @@
 #include <string>
 #include <string_view>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -100,10 +101,8 @@ Options Parse(hyq::cli::CommandLine& cl) {
     else if (cl.Flag("--lcm-url")) o.lcm_url = cl.Value();
     else if (cl.Flag("--summary")) o.summary = cl.Value();
     else if (cl.Flag("--interface")) {
-      const std::string v = cl.Value();
-      const auto eq = v.find('=');
-      if (eq == std::string::npos || eq == 0 || eq + 1 == v.size()) cl.BadValue("BUS=SPEC", v);
-      o.interfaces[v.substr(0, eq)] = v.substr(eq + 1);
+      auto [bus, spec] = cl.KeyValue("BUS=SPEC");
+      o.interfaces[std::move(bus)] = std::move(spec);
     } else if (cl.Flag("--clock")) {
       o.clock = cl.Value();
       if (*o.clock != "realtime" && *o.clock != "lockstep")

@@ -8,20 +8,19 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
-#include <ctime>
-#include <utility>
 #include <condition_variable>
 #include <cstdio>
-#include <cstdlib>
-#include <exception>
+#include <ctime>
 #include <fstream>
-#include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <stdexcept>
 #include <string>
-#include <string_view>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <lcm/lcm-cpp.hpp>
@@ -35,6 +34,8 @@
 #include "sim/fault_spec.h"
 #include "sim/realtime_runner.h"
 #include "sim/simulated_robot.h"
+#include "tools/cli/command_line.h"
+#include "tools/plant_flags/plant_profile_flags.h"
 #include "hyq_lcm/lcmt_hyq_sim_truth.hpp"
 
 namespace {
@@ -70,15 +71,12 @@ struct Options {
   int bus_priority = 75;
   int bus_cpu = hyq::servo::kAutoCpu;
   std::vector<std::pair<double, double>> stalls;  // --stall T:MS (simulated s, wall ms)
-  // the plant profile: the named one, then each factor's flag on top of it
-  std::string profile = "ideal";
-  std::vector<std::function<void(hyq::sim::PlantProfile*)>> profile_overrides;
   std::string write_model;  // write the plant's MJCF (with its model error) here and exit
 };
 
-[[noreturn]] void Usage(int code) {
-  std::fprintf(
-      code == 0 ? stdout : stderr,
+// -h / --help
+std::string Help() {
+  return std::string(
       "usage: hyq-sim [--config FILE] [--urdf FILE] [--interface BUS=SPEC]...\n"
       "               [--mode lockstep|realtime] [--duration S] [--mu MU] [--foot-mu A,B,C,D]\n"
       "               [--ground-patch X0,X1,Y0,Y1,MU]...\n"
@@ -124,7 +122,7 @@ struct Options {
       "                         sources in docs/simulation.md). The flags below change one factor\n"
       "                         of it, whatever their order:\n"
       "  --payload KG,X,Y,Z|off a point mass on the trunk (kg; position in the trunk frame, m)\n"
-      "  --link-errors SEED|off per-link mass ±5 %%, CoM ±1 cm, inertia ±10 %% drawn from SEED\n"
+      "  --link-errors SEED|off per-link mass ±5 %, CoM ±1 cm, inertia ±10 % drawn from SEED\n"
       "  --hydraulics on|off    HyQ's hydraulic actuators and torque loop instead of the lag\n"
       "  --joint-friction on|off  Coulomb + viscous joint friction (realistic's levels)\n"
       "  --delay-cycles K       set-points take effect K plant steps later (0..50)\n"
@@ -141,189 +139,172 @@ struct Options {
       "                         each foot's friction)\n"
       "  --truth-every N        one truth row every N steps (default 10)\n"
       "  --lcm-truth [URL]      publish the truth as lcmt_hyq_sim_truth on HYQ_SIM_TRUTH (default\n"
-      "                         URL %s; off unless given), for hyq-viewer's ghost\n"
-      "  --lcm-truth-every N    one HYQ_SIM_TRUTH message every N steps (default 10)\n"
-      "  --summary FILE         JSON at exit (time, fell, min base height, SYNCs per bus, speed)\n"
-      "  --fall-height M        the base below this height, or the trunk or a leg on the ground,\n"
-      "                         is a ground contact (default 0.2): a sit-down when the base comes\n"
-      "                         down at most 0.5 m/s with the trunk upright, else a fall\n"
-      "  --rt-priority P        realtime mode: SCHED_FIFO priority of the stepping thread, below\n"
-      "                         the servo thread's 80, with mlockall (default 70; 0: SCHED_OTHER)\n"
-      "  --cpu N|auto           realtime mode: pin the stepping thread to CPU N (-1: do not pin;\n"
-      "                         default auto: CPU 0 where two or more cores are allowed)\n"
-      "  --bus-thread on|off    realtime mode: the boards answer SYNCs from a thread of their own\n"
-      "                         with the latest state, so a late or stalled physics step leaves\n"
-      "                         no SYNC unanswered (default on; off: the stepping thread answers\n"
-      "                         between its steps)\n"
-      "  --bus-priority P       its SCHED_FIFO priority (default 75: below the servo thread's 80;\n"
-      "                         0: SCHED_OTHER)\n"
-      "  --bus-cpu N|auto       pin it to CPU N (-1: do not pin; default auto: the last CPU, the\n"
-      "                         servo thread's, where two or more cores are allowed)\n"
-      "  --sync-phase US|off    realtime mode: each physics step begins US µs after the master's\n"
-      "                         SYNC (a phase lock on the step deadlines), so a set-point acts\n"
-      "                         from the next step as in lockstep (default 500: half a period,\n"
-      "                         room for the daemon's cycle before and the step before the next\n"
-      "                         SYNC); off: the steps keep the phase the start gave them, and the\n"
-      "                         loop's delay is 1 or 2 ms by chance (docs/simulation.md)\n"
-      "  --stall T:MS           at simulated time T, stall the stepping thread for MS ms of wall\n"
-      "                         time (what a preempted core does to the plant; tests)\n"
-      "  --quiet                no progress line on stderr\n",
-      kDefaultLcmUrl);
-  std::exit(code);
+      "                         URL ") +
+         kDefaultLcmUrl +
+         "; off unless given), for hyq-viewer's ghost\n"
+         "  --lcm-truth-every N    one HYQ_SIM_TRUTH message every N steps (default 10)\n"
+         "  --summary FILE         JSON at exit (time, fell, min base height, SYNCs per bus, speed)\n"
+         "  --fall-height M        the base below this height, or the trunk or a leg on the ground,\n"
+         "                         is a ground contact (default 0.2): a sit-down when the base comes\n"
+         "                         down at most 0.5 m/s with the trunk upright, else a fall\n"
+         "  --rt-priority P        realtime mode: SCHED_FIFO priority of the stepping thread, below\n"
+         "                         the servo thread's 80, with mlockall (default 70; 0: SCHED_OTHER)\n"
+         "  --cpu N|auto           realtime mode: pin the stepping thread to CPU N (-1: do not pin;\n"
+         "                         default auto: CPU 0 where two or more cores are allowed)\n"
+         "  --bus-thread on|off    realtime mode: the boards answer SYNCs from a thread of their own\n"
+         "                         with the latest state, so a late or stalled physics step leaves\n"
+         "                         no SYNC unanswered (default on; off: the stepping thread answers\n"
+         "                         between its steps)\n"
+         "  --bus-priority P       its SCHED_FIFO priority (default 75: below the servo thread's 80;\n"
+         "                         0: SCHED_OTHER)\n"
+         "  --bus-cpu N|auto       pin it to CPU N (-1: do not pin; default auto: the last CPU, the\n"
+         "                         servo thread's, where two or more cores are allowed)\n"
+         "  --sync-phase US|off    realtime mode: each physics step begins US µs after the master's\n"
+         "                         SYNC (a phase lock on the step deadlines), so a set-point acts\n"
+         "                         from the next step as in lockstep (default 500: half a period,\n"
+         "                         room for the daemon's cycle before and the step before the next\n"
+         "                         SYNC); off: the steps keep the phase the start gave them, and the\n"
+         "                         loop's delay is 1 or 2 ms by chance (docs/simulation.md)\n"
+         "  --stall T:MS           at simulated time T, stall the stepping thread for MS ms of wall\n"
+         "                         time (what a preempted core does to the plant; tests)\n"
+            "  --quiet                no progress line on stderr\n";
 }
 
-[[noreturn]] void Bad(std::string_view flag, std::string_view expected, std::string_view found) {
-  std::fprintf(stderr, "%s: %.*s: expected %.*s, found '%.*s'\n", kTool,
-               static_cast<int>(flag.size()), flag.data(), static_cast<int>(expected.size()),
-               expected.data(), static_cast<int>(found.size()), found.data());
-  std::exit(2);
+constexpr double kNoMax = std::numeric_limits<double>::max();
+
+// --rt-priority, --bus-priority
+int Priority(hyq::cli::CommandLine& cl) {
+  return static_cast<int>(cl.Integer(0, 99, "a priority 0..99"));
 }
 
-double Number(std::string_view flag, const std::string& v, double min, std::string_view what) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  if (v.empty() || *end != '\0' || !std::isfinite(x) || x < min) Bad(flag, what, v);
-  return x;
-}
-
-
-int Priority(std::string_view flag, const std::string& v) {
-  const double p = Number(flag, v, 0, "a priority 0..99");
-  if (p > 99 || p != std::floor(p)) Bad(flag, "a priority 0..99", v);
-  return static_cast<int>(p);
-}
-
-int Cpu(std::string_view flag, const std::string& v) {
+// --cpu, --bus-cpu
+int Cpu(hyq::cli::CommandLine& cl) {
+  const std::string v = cl.Value();
   if (v == "auto") return hyq::servo::kAutoCpu;
-  const double c = Number(flag, v, -1, "a CPU number >= -1 or auto");
-  if (c != std::floor(c)) Bad(flag, "a CPU number >= -1 or auto", v);
-  return static_cast<int>(c);
+  const std::optional<long long> c = hyq::cli::ParseInteger(v);
+  if (!c || *c < -1 || *c > std::numeric_limits<int>::max())
+    cl.BadValue("a CPU number >= -1 or auto", v);
+  return static_cast<int>(*c);
 }
 
-Options Parse(int argc, char** argv) {
-  Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string_view a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) Bad(a, "a value", "end of arguments");
-      return argv[++i];
-    };
-    if (a == "-h" || a == "--help") Usage(0);
-    else if (a == "--config") o.config = value();
-    else if (a == "--urdf") o.urdf = value();
-    else if (a == "--interface") {
-      const std::string v = value();
-      const auto eq = v.find('=');
-      if (eq == std::string::npos || eq == 0 || eq + 1 == v.size()) Bad(a, "BUS=SPEC", v);
-      o.interfaces[v.substr(0, eq)] = v.substr(eq + 1);
-    } else if (a == "--mode") {
-      const std::string v = value();
-      if (v == "lockstep") o.lockstep = true;
-      else if (v == "realtime") o.lockstep = false;
-      else Bad(a, "lockstep or realtime", v);
-    } else if (a == "--duration") o.duration_s = Number(a, value(), 0, "simulated seconds >= 0");
-    else if (a == "--mu") o.robot.plant.ground_mu = Number(a, value(), 0, "a friction coefficient >= 0");
-    else if (a == "--foot-mu") {
-      const std::string v = value();
-      const auto p = hyq::sim::SplitCommas(v);
-      if (p.size() != 4) Bad(a, "four comma-separated coefficients A,B,C,D", v);
-      for (std::size_t f = 0; f < 4; ++f)
-        o.robot.plant.foot_mu[f] = Number(a, p[f], -1e9, "four numbers A,B,C,D");
-    } else if (a == "--ground-patch") {
-      const std::string v = value();
-      try {
-        o.robot.plant.patches.push_back(hyq::sim::ParseGroundPatch(v, std::string(a)));
-      } catch (const std::invalid_argument& e) {
-        std::fprintf(stderr, "%s: %s\n", kTool, e.what());
-        std::exit(2);
-      }
-    } else if (a == "--actuator-tau") o.robot.actuator_tau_s = Number(a, value(), 0, "seconds >= 0");
-    else if (a == "--actuator-rate-limit")
-      o.robot.actuator_rate_limit_Nm_s = Number(a, value(), 0, "N·m/s >= 0");
-    else if (a == "--load-cell-noise") o.robot.load_cell_noise_Nm = Number(a, value(), 0, "N·m >= 0");
-    else if (a == "--encoder-noise") o.robot.encoder_noise_rad = Number(a, value(), 0, "rad >= 0");
-    else if (a == "--imu-noise") {
-      const std::string v = value();
-      const auto p = hyq::sim::SplitCommas(v);
-      if (p.size() > 2) Bad(a, "GYRO[,ACCEL] (rad/s, m/s²)", v);
-      o.robot.gyro_noise_rad_s = Number(a, p[0], 0, "GYRO[,ACCEL] >= 0");
-      if (p.size() == 2) o.robot.accel_noise_m_s2 = Number(a, p[1], 0, "GYRO[,ACCEL] >= 0");
-    } else if (a == "--no-hold") o.robot.hold = false;
-    else if (a == "--start-height") {
-      const std::string v = value();
-      const double h = Number(a, v, 0, "0 or a base height in [0.34, 0.62] m");
-      if (h != 0.0 && (h < 0.34 || h > 0.62)) Bad(a, "0 or a base height in [0.34, 0.62] m", v);
-      o.robot.start_height_m = h;
-    }
-    else if (a == "--seed") {
-      const std::string v = value();
-      char* end = nullptr;
-      const unsigned long long s = std::strtoull(v.c_str(), &end, 10);
-      if (v.empty() || *end != '\0' || v[0] == '-') Bad(a, "an unsigned integer", v);
-      o.robot.seed = s;
-    } else if (a == "--fault") o.faults.push_back(value());
-    else if (a == "--profile") {
-      const std::string v = value();
-      if (v != "ideal" && v != "realistic") Bad(a, "a plant profile ideal or realistic", v);
-      o.profile = v;
-    } else if (a == "--payload" || a == "--link-errors" || a == "--hydraulics" ||
-               a == "--joint-friction" || a == "--delay-cycles" || a == "--load-cell-bias" ||
-               a == "--imu-bias" || a == "--bias-seed") {
-      // checked now (the error names the flag), applied after --profile whatever the order
-      const std::string flag(a), v = value();
-      hyq::sim::PlantProfile check;
-      try {
-        hyq::sim::ApplyProfileFlag(flag, v, &check);
-      } catch (const std::invalid_argument& e) {
-        std::fprintf(stderr, "%s: %s\n", kTool, e.what());
-        std::exit(2);
-      }
-      o.profile_overrides.push_back(
-          [flag, v](hyq::sim::PlantProfile* pp) { hyq::sim::ApplyProfileFlag(flag, v, pp); });
-    } else if (a == "--write-model") o.write_model = value();
-    else if (a == "--truth") o.truth = value();
-    else if (a == "--truth-every")
-      o.truth_every = static_cast<int>(Number(a, value(), 1, "an integer >= 1"));
-    else if (a == "--lcm-truth") {
-      // the URL is optional: the next argument is it unless it is another option
-      o.lcm_truth_url = i + 1 < argc && argv[i + 1][0] != '-' ? argv[++i] : kDefaultLcmUrl;
-    } else if (a == "--lcm-truth-every")
-      o.lcm_truth_every = static_cast<int>(Number(a, value(), 1, "an integer >= 1"));
-    else if (a == "--summary") o.summary = value();
-    else if (a == "--fall-height") o.robot.fall_height_m = Number(a, value(), 0, "metres >= 0");
-    else if (a == "--rt-priority") o.rt_priority = Priority(a, value());
-    else if (a == "--cpu") o.cpu = Cpu(a, value());
-    else if (a == "--bus-thread") {
-      const std::string v = value();
-      if (v == "on") o.bus_thread = true;
-      else if (v == "off") o.bus_thread = false;
-      else Bad(a, "on or off", v);
-    } else if (a == "--bus-priority") o.bus_priority = Priority(a, value());
-    else if (a == "--bus-cpu") o.bus_cpu = Cpu(a, value());
-    else if (a == "--sync-phase") {
-      const std::string v = value();
-      if (v == "off") o.robot.sync_phase_ns = -1;
-      else {
-        // below the cycle period, which the HAL configuration gives (checked there)
-        o.robot.sync_phase_ns = std::llround(1e3 * Number(a, v, 0, "microseconds >= 0, or off"));
-      }
-    }
-    else if (a == "--stall") {
-      const std::string v = value();
-      const std::size_t colon = v.find(':');
-      if (colon == std::string::npos) Bad(a, "T:MS (simulated seconds, wall milliseconds)", v);
-      const double t = Number(a, v.substr(0, colon), 0, "T:MS with T >= 0 s");
-      const double ms = Number(a, v.substr(colon + 1), 0, "T:MS with MS >= 0 ms");
-      if (ms > 10000) Bad(a, "T:MS with MS <= 10000", v);
-      o.stalls.emplace_back(t, ms);
-    } else if (a == "--quiet") o.quiet = true;
-    else {
-      std::fprintf(stderr, "%s: unknown option '%s' (--help lists them)\n", kTool, argv[i]);
-      std::exit(2);
-    }
+// on|off as a bool
+bool OnOff(hyq::cli::CommandLine& cl) {
+  const std::string v = cl.Value();
+  if (v != "on" && v != "off") cl.BadValue("on or off", v);
+  return v == "on";
+}
+
+// --ground-patch X0,X1,Y0,Y1,MU
+hyq::sim::GroundPatch GroundPatch(hyq::cli::CommandLine& cl) {
+  const std::string v = cl.Value();
+  const std::vector<std::string> f = hyq::cli::Split(v, ',');
+  if (f.size() != 5) cl.BadValue("five numbers X0,X1,Y0,Y1,MU", v);
+  hyq::sim::GroundPatch p;
+  p.x0_m = cl.NumberOf("--ground-patch X0", f[0]);
+  p.x1_m = cl.NumberOf("--ground-patch X1", f[1]);
+  p.y0_m = cl.NumberOf("--ground-patch Y0", f[2]);
+  p.y1_m = cl.NumberOf("--ground-patch Y1", f[3]);
+  p.mu = cl.NumberOf("--ground-patch MU", f[4], 0.0, kNoMax, "a friction coefficient >= 0");
+  if (!(p.x0_m < p.x1_m) || !(p.y0_m < p.y1_m)) cl.BadValue("X0 < X1 and Y0 < Y1", v);
+  return p;
+}
+
+// --fault T:KIND:TARGET[:ARG]: the time and the kind now; the target and the argument when the
+// HAL configuration is loaded (sim::ParseFaultSpec)
+std::string Fault(hyq::cli::CommandLine& cl) {
+  const std::string v = cl.Value();
+  const std::vector<std::string> f = hyq::cli::Split(v, ':');
+  if (f.size() != 3 && f.size() != 4) cl.BadValue("T:KIND:TARGET[:ARG]", v);
+  (void)cl.NumberOf("--fault T", f[0], 0.0, kNoMax, "simulated seconds >= 0");
+  using Kind = hyq::sim::FaultSpec::Kind;
+  std::string kinds;
+  for (Kind k : {Kind::kSilent, Kind::kCorrupt, Kind::kDrop, Kind::kNan, Kind::kBusOff, Kind::kEmcy}) {
+    if (f[1] == hyq::sim::ToString(k)) return v;
+    if (!kinds.empty()) kinds += '|';
+    kinds += hyq::sim::ToString(k);
   }
-  o.robot.profile = hyq::sim::ProfileByName(o.profile, "--profile");
-  for (const auto& f : o.profile_overrides) f(&o.robot.profile);
+  cl.Bad("--fault KIND", kinds, f[1]);
+}
+
+Options Parse(hyq::cli::CommandLine& cl) {
+  using hyq::cli::Split;
+  Options o;
+  hyq::cli::PlantProfileFlags plant(/*imu=*/true);
+  while (cl.Next()) {
+    if (plant.Read(cl)) continue;
+    if (cl.Flag("--config")) o.config = cl.Value();
+    else if (cl.Flag("--urdf")) o.urdf = cl.Value();
+    else if (cl.Flag("--interface")) {
+      auto [bus, spec] = cl.KeyValue("BUS=SPEC");
+      o.interfaces[std::move(bus)] = std::move(spec);
+    } else if (cl.Flag("--mode")) {
+      const std::string v = cl.Value();
+      if (v != "lockstep" && v != "realtime") cl.BadValue("lockstep or realtime", v);
+      o.lockstep = v == "lockstep";
+    } else if (cl.Flag("--duration")) o.duration_s = cl.Number(0.0, kNoMax, "simulated seconds >= 0");
+    else if (cl.Flag("--mu"))
+      o.robot.plant.ground_mu = cl.Number(0.0, kNoMax, "a friction coefficient >= 0");
+    else if (cl.Flag("--foot-mu")) {
+      const std::string v = cl.Value();
+      const std::vector<std::string> p = Split(v, ',');
+      if (p.size() != 4) cl.BadValue("four comma-separated coefficients A,B,C,D", v);
+      const char* const parts[] = {"--foot-mu A", "--foot-mu B", "--foot-mu C", "--foot-mu D"};
+      for (std::size_t f = 0; f < 4; ++f) o.robot.plant.foot_mu[f] = cl.NumberOf(parts[f], p[f]);
+    } else if (cl.Flag("--ground-patch")) o.robot.plant.patches.push_back(GroundPatch(cl));
+    else if (cl.Flag("--actuator-tau")) o.robot.actuator_tau_s = cl.Number(0.0, kNoMax, "seconds >= 0");
+    else if (cl.Flag("--actuator-rate-limit"))
+      o.robot.actuator_rate_limit_Nm_s = cl.Number(0.0, kNoMax, "N·m/s >= 0");
+    else if (cl.Flag("--load-cell-noise")) o.robot.load_cell_noise_Nm = cl.Number(0.0, kNoMax, "N·m >= 0");
+    else if (cl.Flag("--encoder-noise")) o.robot.encoder_noise_rad = cl.Number(0.0, kNoMax, "rad >= 0");
+    else if (cl.Flag("--imu-noise")) {
+      const std::string v = cl.Value();
+      const std::vector<std::string> p = Split(v, ',');
+      if (p.size() > 2) cl.BadValue("GYRO[,ACCEL] (rad/s, m/s²)", v);
+      o.robot.gyro_noise_rad_s = cl.NumberOf("--imu-noise GYRO", p[0], 0.0, kNoMax, "rad/s >= 0");
+      if (p.size() == 2)
+        o.robot.accel_noise_m_s2 = cl.NumberOf("--imu-noise ACCEL", p[1], 0.0, kNoMax, "m/s² >= 0");
+    } else if (cl.Flag("--no-hold")) o.robot.hold = false;
+    else if (cl.Flag("--start-height")) {
+      const std::string expected = "0 or a base height in [0.34, 0.62] m";
+      const std::string v = cl.Value();
+      const double h = cl.NumberOf("--start-height", v, 0.0, kNoMax, expected);
+      if (h != 0.0 && (h < 0.34 || h > 0.62)) cl.BadValue(expected, v);
+      o.robot.start_height_m = h;
+    } else if (cl.Flag("--seed")) {
+      o.robot.seed = static_cast<std::uint64_t>(
+          cl.Integer(0, std::numeric_limits<long long>::max(), "an unsigned integer"));
+    } else if (cl.Flag("--fault")) o.faults.push_back(Fault(cl));
+    else if (cl.Flag("--write-model")) o.write_model = cl.Value();
+    else if (cl.Flag("--truth")) o.truth = cl.Value();
+    else if (cl.Flag("--truth-every"))
+      o.truth_every = static_cast<int>(cl.Integer(1, std::numeric_limits<int>::max(), "an integer >= 1"));
+    else if (cl.Flag("--lcm-truth")) o.lcm_truth_url = cl.OptionalValue().value_or(kDefaultLcmUrl);
+    else if (cl.Flag("--lcm-truth-every"))
+      o.lcm_truth_every = static_cast<int>(cl.Integer(1, std::numeric_limits<int>::max(), "an integer >= 1"));
+    else if (cl.Flag("--summary")) o.summary = cl.Value();
+    else if (cl.Flag("--fall-height")) o.robot.fall_height_m = cl.Number(0.0, kNoMax, "metres >= 0");
+    else if (cl.Flag("--rt-priority")) o.rt_priority = Priority(cl);
+    else if (cl.Flag("--cpu")) o.cpu = Cpu(cl);
+    else if (cl.Flag("--bus-thread")) o.bus_thread = OnOff(cl);
+    else if (cl.Flag("--bus-priority")) o.bus_priority = Priority(cl);
+    else if (cl.Flag("--bus-cpu")) o.bus_cpu = Cpu(cl);
+    else if (cl.Flag("--sync-phase")) {
+      const std::string v = cl.Value();
+      // below the cycle period, which the HAL configuration gives (checked there)
+      o.robot.sync_phase_ns =
+          v == "off" ? -1
+                     : std::llround(1e3 * cl.NumberOf("--sync-phase", v, 0.0, kNoMax,
+                                                      "microseconds >= 0, or off"));
+    } else if (cl.Flag("--stall")) {
+      const std::string v = cl.Value();
+      const std::vector<std::string> p = Split(v, ':');
+      if (p.size() != 2) cl.BadValue("T:MS (simulated seconds, wall milliseconds)", v);
+      o.stalls.emplace_back(cl.NumberOf("--stall T", p[0], 0.0, kNoMax, "simulated seconds >= 0"),
+                            cl.NumberOf("--stall MS", p[1], 0.0, 10000.0));
+    } else if (cl.Flag("--quiet")) o.quiet = true;
+    else cl.Unknown();
+  }
+  o.robot.profile = plant.Profile();
   return o;
 }
 
@@ -420,18 +401,18 @@ void FillTruth(const hyq::sim::SimulatedRobot& r, hyq_lcm::lcmt_hyq_sim_truth* m
 }
 
 /// The HAL configuration, checked against the command line's buses and SYNC phase.
-hyq::hal::HalConfig LoadConfig(const Options& o) {
+hyq::hal::HalConfig LoadConfig(const hyq::cli::CommandLine& cl, const Options& o) {
   using namespace hyq;
   hal::HalConfig cfg = config::LoadHalConfig(o.config);
   for (const auto& [bus, spec] : o.interfaces) {
     bool found = false;
     for (const hal::BusConfig& b : cfg.buses) found = found || b.name == bus;
-    if (!found) Bad("--interface", "a bus of " + o.config, bus);
+    if (!found) cl.Bad("--interface", "a bus of " + o.config, bus);
   }
   if (o.robot.sync_phase_ns >= std::llround(1e9 * cfg.timing.cycle_period_s))
-    Bad("--sync-phase", "microseconds below the cycle period of " + o.config + " (" +
-                            std::to_string(std::llround(1e6 * cfg.timing.cycle_period_s)) + " µs)",
-        std::to_string(o.robot.sync_phase_ns / 1000));
+    cl.Bad("--sync-phase", "microseconds below the cycle period of " + o.config + " (" +
+                               std::to_string(std::llround(1e6 * cfg.timing.cycle_period_s)) + " µs)",
+           std::to_string(o.robot.sync_phase_ns / 1000));
   return cfg;
 }
 
@@ -731,9 +712,9 @@ Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
   return s;
 }
 
-int Run(const Options& o) {
+int Run(const hyq::cli::CommandLine& cl, const Options& o) {
   using namespace hyq;
-  const hal::HalConfig cfg = LoadConfig(o);
+  const hal::HalConfig cfg = LoadConfig(cl, o);
   const dynamics::Model model = dynamics::LoadModelFromUrdf(o.urdf);
   if (!o.write_model.empty()) return WriteModel(o, cfg, model);
   const Channels channels = OpenChannels(o, cfg);
@@ -744,8 +725,7 @@ int Run(const Options& o) {
     try {
       robot.ScheduleFault(sim::ParseFaultSpec(f, cfg));
     } catch (const std::invalid_argument& e) {
-      std::fprintf(stderr, "%s: --fault: %s\n", kTool, e.what());
-      return 2;
+      cl.Fail(std::string("--fault: ") + e.what());
     }
   }
   StepRecorder recorder(o);
@@ -780,11 +760,7 @@ int Run(const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const Options o = Parse(argc, argv);
-  try {
-    return Run(o);
-  } catch (const std::exception& e) {
-    std::fprintf(stderr, "%s: %s\n", kTool, e.what());
-    return 1;
-  }
+  hyq::cli::CommandLine cl(argc, argv, kTool, Help());
+  const Options o = Parse(cl);
+  return hyq::cli::Run(kTool, [&] { return Run(cl, o); });
 }
