@@ -26,6 +26,13 @@ enum class ActuatorKind : std::uint8_t { kRotary, kCylinder };
 /// The configuration files give angles in degrees; the calibration stores radians.
 inline constexpr double kRadPerDeg = std::numbers::pi / 180.0;
 
+/// The check of a sign key (Key::Check): +1 or -1.
+template <class T>
+std::optional<Violation> PlusOrMinusOne(const T& s) {
+  if (s == 1 || s == -1) return std::nullopt;
+  return Violation{"+1 or -1"};
+}
+
 struct EncoderCalibration {
   double counts_per_rev = 131072.0;  // joint-side counts per joint revolution
   std::int32_t offset_counts = 0;    // counts at q = 0
@@ -42,13 +49,6 @@ struct EncoderCalibration {
     a->Visit(Key("offset_counts", &offset_counts).Required().Unit("counts").Doc("counts at q = 0"));
     a->Visit(Key("direction", &direction).Required().In(-1, 1).Check(PlusOrMinusOne<int>)
                  .Doc("+1 or -1: the sign between counts and q"));
-  }
-
-  /// The check of a sign key: +1 or -1.
-  template <class T>
-  static std::optional<Violation> PlusOrMinusOne(const T& s) {
-    if (s == 1 || s == -1) return std::nullopt;
-    return Violation{"+1 or -1"};
   }
 };
 
@@ -72,7 +72,7 @@ struct CylinderGeometry {
     a->Visit(Key("phi0_deg", &phi0_rad).Required().Scale(kRadPerDeg).Unit("deg")
                  .Doc("cylinders: the angle phi between the two at q = 0 (hal/calibration.h)"));
     a->Visit(Key("phi_per_q", &phi_per_q).Required()
-                 .Check(EncoderCalibration::PlusOrMinusOne<double>)
+                 .Check(PlusOrMinusOne<double>)
                  .Doc("cylinders: s in phi = phi0 + s q, +1 or -1"));
   }
 };
