@@ -29,7 +29,8 @@ std::string ConfigReference() {
   return "### The servo file (`hyq-servod --config`, e.g. config/hyq_servo.yaml)\n\n"
          "Every section but `robot` is optional; dt is the loop period, 1 / `loop.rate_hz`.\n\n" +
          KeyTable<servo::ServoConfig>() +
-         "\n### The HAL file (`robot.hal`, e.g. config/hyq_hal.yaml)\n\n" + KeyTable<hal::HalConfig>();
+         "\n### The HAL file (`robot.hal`, e.g. config/hyq_hal.yaml)\n\n"
+         "`joints.<name>` is one map per joint; which sensor keys it has depends on its `actuator`.\n\n" + KeyTable(hal::DefaultHalConfig());
 }
 
 }  // namespace hyq::config

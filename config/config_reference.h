@@ -17,7 +17,6 @@
 
 #include "config/yaml_reader.h"
 #include "dynamics/model.h"
-#include "hal/calibration.h"
 #include "hal/config_key.h"
 #include "hal/hal_config.h"
 
@@ -61,6 +60,19 @@ class MarkdownArchive {
         element.Serialize(&child);
       }
     }
+    if constexpr (IsNamedArray<T>()) {
+      // every element's keys, each once: elements of different kinds list different keys
+      std::vector<KeyRow> element_rows;
+      for (auto element : *k.value) {
+        MarkdownArchive child(Join(k.name) + ".<name>", &element_rows);
+        element.Serialize(&child);
+      }
+      for (const KeyRow& r : element_rows) {
+        bool listed = false;
+        for (const KeyRow& l : *rows_) listed = listed || l.key == r.key;
+        if (!listed) rows_->push_back(r);
+      }
+    }
   }
 
  private:
@@ -69,6 +81,14 @@ class MarkdownArchive {
     if constexpr (requires { typename T::value_type; typename T::allocator_type; })
       return std::is_class_v<typename T::value_type> &&
              !std::is_same_v<typename T::value_type, std::string>;
+    else
+      return false;
+  }
+
+  template <class T>
+  static constexpr bool IsNamedArray() {
+    if constexpr (requires { std::tuple_size<T>::value; typename T::value_type; })
+      return std::is_class_v<typename T::value_type>;
     else
       return false;
   }
@@ -117,8 +137,8 @@ class MarkdownArchive {
       return "number" + Range(k.min, k.max);
     } else if constexpr (std::is_same_v<T, dynamics::VectorJ>) {
       return "1, 3 or 12 numbers" + Range(k.min, k.max, k.max_rate_power);
-    } else if constexpr (std::is_same_v<T, std::array<hal::JointCalibration, hal::kNumJoints>>) {
-      return "map: joint name → calibration";
+    } else if constexpr (IsNamedArray<T>()) {
+      return std::string("map: ") + k.elements + " → its keys (below)";
     } else if constexpr (requires { std::tuple_size<T>::value; }) {
       const std::string n = std::to_string(std::tuple_size<T>::value);
       std::string s = (k.broadcast ? "1 or " + n : n) + " numbers" +
@@ -146,7 +166,7 @@ class MarkdownArchive {
       if constexpr (std::is_enum_v<T>) return "";
       else return std::to_string(static_cast<long long>(v));
     } else if constexpr (std::is_floating_point_v<T>) {
-      return FormatNumber(k.reciprocal ? 1.0 / v : v);
+      return FormatNumber(k.reciprocal ? 1.0 / v : v / k.scale);
     } else if constexpr (std::is_same_v<T, std::string>) {
       return v.empty() ? "" : "`" + v + "`";
     } else if constexpr (std::is_same_v<T, std::optional<std::chrono::nanoseconds>>) {
@@ -156,14 +176,19 @@ class MarkdownArchive {
       std::string s;
       for (int j = 0; j < v.size(); ++j) s += (j ? ", " : "[") + FormatNumber(v(j));
       return s + "]";
-    } else if constexpr (std::is_same_v<T, std::array<hal::JointCalibration, hal::kNumJoints>>) {
+    } else if constexpr (IsNamedArray<T>()) {
       return "";
     } else if constexpr (requires { std::tuple_size<T>::value; }) {
+      std::vector<double> x;  // in the file's unit
+      for (const auto& e : v) {
+        if constexpr (std::is_pointer_v<typename T::value_type>) x.push_back(*e / k.scale);
+        else x.push_back(e / k.scale);
+      }
       bool same = true;
-      for (const double x : v) same = same && x == v[0];
-      if (same && k.broadcast) return FormatNumber(v[0]);
+      for (const double e : x) same = same && e == x[0];
+      if (same && k.broadcast) return FormatNumber(x[0]);
       std::string s;
-      for (std::size_t i = 0; i < v.size(); ++i) s += (i ? ", " : "[") + FormatNumber(v[i]);
+      for (std::size_t i = 0; i < x.size(); ++i) s += (i ? ", " : "[") + FormatNumber(x[i]);
       return s + "]";
     } else if constexpr (std::is_same_v<T, std::vector<std::string>>) {
       std::string s;

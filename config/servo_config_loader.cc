@@ -11,6 +11,7 @@
 #include <cmath>
 #include <string>
 
+#include "config/rate_bounds.h"
 #include "config/yaml_archive.h"
 #include "config/yaml_reader.h"
 #include "hal/config_error.h"
@@ -20,7 +21,6 @@ namespace hyq::config {
 using hal::ConfigError;
 
 void ValidateServoConfig(const servo::ServoConfig& c) {
-  const double dt = c.period_s();
   auto fail = [&](const std::string& key, const std::string& expected, const std::string& found) {
     throw ConfigError(c.source + ": key '" + key + "': expected " + expected + ", found " + found);
   };
@@ -30,12 +30,9 @@ void ValidateServoConfig(const servo::ServoConfig& c) {
       if (c.commands.channel == c.telemetry.channel_prefix + suffix)
         fail("commands.channel", "a channel the telemetry does not publish on",
              "'" + c.commands.channel + "'");
-  if (c.controller.feedback.kd_acc.maxCoeff() * dt > 0.5)
-    fail("controller.gains.kd_acc", "kd_acc · dt <= 0.5 at " + detail::FormatNumber(c.rate_hz()) + " Hz",
-         detail::FormatNumber(c.controller.feedback.kd_acc.maxCoeff()));
-  if (c.controller.feedback.kp_acc.maxCoeff() * dt * dt > 0.25)
-    fail("controller.gains.kp_acc", "kp_acc · dt² <= 0.25 at " + detail::FormatNumber(c.rate_hz()) + " Hz",
-         detail::FormatNumber(c.controller.feedback.kp_acc.maxCoeff()));
+  // the gains bounded at the loop rate, with the bounds of their keys
+  if (const auto excess = detail::FindRateBoundExcess(c))
+    fail(excess->key, excess->expected, excess->found);
   const bool pd = c.controller.kind == servo::ControllerKind::kPid
                       ? c.controller.pid.kp.maxCoeff() > 0.0
                   : c.controller.kind == servo::ControllerKind::kPdGravity

@@ -1,8 +1,9 @@
 // Reads a configuration struct from YAML through its Serialize (house style §11): the keys, their
 // defaults and bounds are the struct's list (hal/config_key.h); this archive turns each into a
 // lookup whose error names the file, the line, the key (a dotted path), what was expected and
-// what was found. Each map's keys are checked against the list before any value is read: a key
-// the list lacks, or one given twice, is an error.
+// what was found. Each map's keys are checked against the list before any value is read (but those
+// marked Selects(), which decide the rest of the list): a key the list lacks, or one given twice,
+// is an error.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -19,9 +20,9 @@
 #include <type_traits>
 #include <vector>
 
+#include "config/rate_bounds.h"
 #include "config/yaml_reader.h"
 #include "dynamics/model.h"
-#include "hal/calibration.h"
 #include "hal/config_key.h"
 #include "hal/hal_config.h"
 
@@ -30,11 +31,6 @@ namespace hyq::config {
 hal::HalConfig LoadHalConfig(const std::filesystem::path& path);  // config/hal_config_loader.h
 
 namespace detail {
-
-/// The joints' calibration map of a HAL file (config/hal_config_loader.cc): one entry per joint
-/// name, its keys depending on the actuator.
-void ReadJointCalibrations(const Reader& r, const YAML::Node& n, const std::string& path,
-                           std::array<hal::JointCalibration, hal::kNumJoints>* joints);
 
 /// The names a Serialize lists, for the check of a map's keys.
 class KeyNames {
@@ -113,6 +109,9 @@ class YamlArchive {
   /// then reads them.
   template <class F>
   void Read(F&& f) {
+    selecting_ = true;  // the keys the list depends on (Key::Selects) first
+    f(this);
+    selecting_ = false;
     KeyNames names;
     f(&names);
     for (const auto& k : names.retired)
@@ -123,11 +122,13 @@ class YamlArchive {
 
   template <class S>
   void Visit(const char* name, S* member) {
+    if (selecting_) return;
     Section(name, [member](auto* a) { member->Serialize(a); });
   }
 
   template <class F>
   void Section(const char* name, F&& f, bool required = false) {
+    if (selecting_) return;
     const std::string p = Reader::Join(path_, name);
     const YAML::Node n = map_[name];
     if (!n.IsDefined() && required) r_.Fail(map_, p, "a map", "nothing (the key is missing)");
@@ -141,6 +142,7 @@ class YamlArchive {
 
   template <class S>
   void Include(const std::string& path, S* member) {
+    if (selecting_) return;
     static_assert(std::is_same_v<S, hal::HalConfig>, "Include reads HAL files only");
     *member = LoadHalConfig(path);
   }
@@ -149,6 +151,7 @@ class YamlArchive {
 
   template <class T>
   void Visit(const hal::Key<T>& k) {
+    if (selecting_ && !k.selects) return;
     const std::string p = Reader::Join(path_, k.name);
     const YAML::Node n = map_[k.name];
     if (n.IsDefined()) {
@@ -165,7 +168,9 @@ class YamlArchive {
         const YAML::Node at = element ? n[static_cast<std::size_t>(v->index)] : n;
         const std::string ap = v->index >= 0 ? p + "[" + std::to_string(v->index) + "]" : p;
         r_.Fail(at, ap + v->part, v->expected,
-                at.IsDefined() ? Describe(at) : DescribeDefault(*k.value));
+                !at.IsDefined()    ? DescribeDefault(*k.value)
+                : at.IsSequence() ? DescribeElements(at)
+                                  : Describe(at));
       }
     }
   }
@@ -174,7 +179,7 @@ class YamlArchive {
   double Max(double max, int power) const {
     if (power == 0) return max;
     if (ctx_->period_s == nullptr) throw hal::ConfigError("a rate-scaled bound without a Period()");
-    return max * std::pow(1.0 / *ctx_->period_s, power);
+    return RateScaledMax(max, power, *ctx_->period_s);
   }
 
   // a number within the key's bounds
@@ -190,6 +195,41 @@ class YamlArchive {
       r_.Fail(n, p, expected + suffix, Describe(n));
     }
     return x;
+  }
+
+  // "'25', '-70'": a list's elements, for a check on the list as a whole
+  static std::string DescribeElements(const YAML::Node& n) {
+    std::string s;
+    for (std::size_t i = 0; i < n.size(); ++i) s += (i ? ", " : "") + Describe(n[i]);
+    return s;
+  }
+
+  // a fixed array of maps given as a map from each element's name (Key::Named)
+  template <class T>
+  void ReadNamed(const YAML::Node& n, const std::string& p, const hal::Key<T>& k) const {
+    if (!n.IsMap()) r_.Fail(n, p, "a map", Describe(n));
+    T& v = *k.value;
+    auto index = [&](const std::string& name) {
+      for (std::size_t i = 0; i < v.size(); ++i)
+        if (k.element_name(static_cast<int>(i)) == name) return static_cast<int>(i);
+      return -1;
+    };
+    for (const auto& kv : n) {
+      const std::string name = kv.first.as<std::string>();
+      if (index(name) < 0) r_.Fail(kv.first, p + "." + name, std::string("a ") + k.elements, "'" + name + "'");
+    }
+    for (std::size_t i = 0; i < v.size(); ++i) {
+      const std::string name(k.element_name(static_cast<int>(i)));
+      const std::string ep = p + "." + name;
+      const YAML::Node e = n[name];
+      if (!e.IsDefined())
+        r_.Fail(n, ep, std::string("an entry for every ") + k.elements, "nothing (the key is missing)");
+      if (!e.IsMap()) r_.Fail(e, ep, "a map", Describe(e));
+      typename T::value_type element;
+      YamlArchive child(ctx_, e, ep);
+      child.Read([&element](auto* a) { element.Serialize(a); });
+      v[i] = element;
+    }
   }
 
   std::string NonEmptyString(const YAML::Node& n, const std::string& p) const {
@@ -254,7 +294,7 @@ class YamlArchive {
     } else if constexpr (std::is_floating_point_v<T>) {
       const double x = Bounded(n, p, k.min, Max(k.max, k.max_rate_power),
                                RateSuffix(k.max, k.max_rate_power));
-      v = k.reciprocal ? 1.0 / x : x;
+      v = k.reciprocal ? 1.0 / x : k.scale * x;
     } else if constexpr (std::is_same_v<T, std::string>) {
       const std::string s = NonEmptyString(n, p);
       if (!k.path) {
@@ -291,21 +331,29 @@ class YamlArchive {
                 Describe(n));
       }
     } else if constexpr (IsStdArray<T>::value) {
-      if constexpr (std::is_same_v<typename T::value_type, hal::JointCalibration>) {
-        ReadJointCalibrations(r_, n, p, &v);
+      using E = typename T::value_type;
+      if constexpr (Serializable<E>) {
+        ReadNamed(n, p, k);
       } else {
+        // an element: the array's own, or the member a MemberList points to
+        auto slot = [&v](std::size_t i) -> double& {
+          if constexpr (std::is_pointer_v<E>) return *v[i];
+          else return v[i];
+        };
         const std::size_t size = v.size();
         const std::string count = std::to_string(size) + " numbers" +
                                   (*k.elements ? std::string(" ") + k.elements : std::string());
         auto element = [&](const YAML::Node& e, const std::string& ep, std::size_t i) {
           const double hi = k.max_each.empty() ? k.max : k.max_each[i];
-          return Bounded(e, ep, k.min, hi, "");
+          const double x = Bounded(e, ep, k.min, hi, "");
+          return k.scale * x;
         };
         if (k.broadcast && n.IsScalar()) {
-          v.fill(element(n, p, 0));
+          const double x = element(n, p, 0);
+          for (std::size_t i = 0; i < size; ++i) slot(i) = x;
         } else if (n.IsSequence() && n.size() == size) {
           for (std::size_t i = 0; i < size; ++i)
-            v[i] = element(n[i], p + "[" + std::to_string(i) + "]", i);
+            slot(i) = element(n[i], p + "[" + std::to_string(i) + "]", i);
         } else {
           r_.Fail(n, p,
                   k.broadcast ? "one number or " + count
@@ -347,6 +395,7 @@ class YamlArchive {
   const Reader& r_;
   const YAML::Node map_;
   std::string path_;
+  bool selecting_ = false;  // Read's first pass: only the keys marked Selects()
 };
 
 }  // namespace detail

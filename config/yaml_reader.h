@@ -1,7 +1,6 @@
 // The YAML reading helpers of config/: each lookup knows the file and the dotted key path, so
 // that every error names the file, the line, the key, what was expected and what was found.
-// config/yaml_archive.h reads the structs' keys with them; the HAL's joint calibrations, whose
-// keys depend on the actuator, are read with them directly (config/hal_config_loader.cc).
+// config/yaml_archive.h reads the structs' keys with them.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -44,55 +43,11 @@ class Reader {
     throw ConfigError(msg);
   }
 
-  YAML::Node Child(const YAML::Node& map, const std::string& path, const char* key,
-                   const char* expected) const {
-    const YAML::Node n = map[key];
-    if (!n.IsDefined()) Fail(map, Join(path, key), expected, "nothing (the key is missing)");
-    return n;
-  }
-
-  YAML::Node Map(const YAML::Node& map, const std::string& path, const char* key) const {
-    const YAML::Node n = Child(map, path, key, "a map");
-    if (!n.IsMap()) Fail(n, Join(path, key), "a map", Describe(n));
-    return n;
-  }
-
-  double Number(const YAML::Node& map, const std::string& path, const char* key) const {
-    return ToNumber(Child(map, path, key, "a number"), Join(path, key));
-  }
-
   double ToNumber(const YAML::Node& n, const std::string& key) const {
     double v = 0.0;
     if (!n.IsScalar() || !YAML::convert<double>::decode(n, v) || !std::isfinite(v))
       Fail(n, key, "a finite number", Describe(n));
     return v;
-  }
-
-  long long Integer(const YAML::Node& map, const std::string& path, const char* key,
-                    long long lo, long long hi) const {
-    const YAML::Node n = Child(map, path, key, "an integer");
-    long long v = 0;
-    const std::string range = "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]";
-    if (!n.IsScalar() || !YAML::convert<long long>::decode(n, v) || v < lo || v > hi)
-      Fail(n, Join(path, key), range, Describe(n));
-    return v;
-  }
-
-  std::string String(const YAML::Node& map, const std::string& path, const char* key) const {
-    const YAML::Node n = Child(map, path, key, "a string");
-    if (!n.IsScalar() || n.Scalar().empty()) Fail(n, Join(path, key), "a non-empty string", Describe(n));
-    return n.Scalar();
-  }
-
-  std::string OneOf(const YAML::Node& map, const std::string& path, const char* key,
-                    std::initializer_list<const char*> choices) const {
-    const std::string v = String(map, path, key);
-    std::string expected = "one of";
-    for (const char* c : choices) {
-      if (v == c) return v;
-      expected += std::string(" '") + c + "'";
-    }
-    Fail(map[key], Join(path, key), expected, "'" + v + "'");
   }
 
   // Unknown keys and keys given twice are errors (yaml-cpp keeps the first of two silently).

@@ -18,13 +18,18 @@
 //   a->Visit(RetiredKey{...})      a key no longer read, refused with a pointer to its successor
 //   a->Include(path, &member)      a member read from another file (the HAL file of the servo's)
 //   a->Period(&period_s)           the loop period that Key::MaxTimesRate bounds refer to
+// A key whose value decides which other keys the map has (a joint's `actuator`) is marked
+// Selects(): it is read before the map's keys are checked, so Serialize may branch on it.
 // Modules include this header only: nothing here knows YAML.
 #pragma once
 
+#include <array>
+#include <cstddef>
 #include <functional>
 #include <limits>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -68,6 +73,23 @@ struct Key {
   /// The file gives 1 / the member (a rate for a stored period).
   Key& Reciprocal() {
     reciprocal = true;
+    return *this;
+  }
+  /// The member is the file's number times `factor` (degrees in the file, radians stored:
+  /// Scale(kRadPerDeg)); for a list, each element. The bounds are the file's.
+  Key& Scale(double factor) {
+    scale = factor;
+    return *this;
+  }
+  /// The key's value decides which keys follow it (Serialize branches on it): read first.
+  Key& Selects() {
+    selects = true;
+    return *this;
+  }
+  /// A fixed array of maps given as a map from each element's name, name_of(index), to the
+  /// element; every name must be present (joints.<joint name>).
+  Key& Named(std::string_view (*name_of)(int)) {
+    element_name = name_of;
     return *this;
   }
   Key& Required(bool r = true) {
@@ -126,7 +148,9 @@ struct Key {
   double max = std::numeric_limits<double>::infinity();
   int max_rate_power = 0;
   std::vector<double> max_each;
-  bool reciprocal = false, required = false, path = false, non_empty = false, broadcast = false,
+  double scale = 1.0;
+  std::string_view (*element_name)(int) = nullptr;
+  bool reciprocal = false, selects = false, required = false, path = false, non_empty = false, broadcast = false,
        by_name = false;
   const char* elements = "";
   std::vector<Choice<T>> choices;
@@ -134,6 +158,11 @@ struct Key {
   const char* unit = "";
   const char* doc = "";
 };
+
+/// A list in the file whose elements fill separate members (range_deg: [min, max] ->
+/// q_min_rad, q_max_rad): Key("range_deg", &list) with list = {&q_min_rad, &q_max_rad}.
+template <std::size_t N>
+using MemberList = std::array<double*, N>;
 
 /// A key the file may no longer give: refused with what to do instead (a renamed or moved key
 /// must not be ignored silently).

@@ -138,8 +138,9 @@ struct HalConfig {
                  .Doc("count every heartbeat landing in the same cycle"));
     a->Visit(Key("buses", &buses).Required().NonEmpty().Elements("buses")
                  .Doc("the CAN buses and their devices"));
-    a->Visit(Key("joints", &joints).Required()
-                 .Doc("each joint's calibration: actuator, encoder, sensor, range (docs/hal.md)"));
+    a->Visit(Key("joints", &joints).Required().Named(&JointName)
+                 .Elements("joint name {lf,rf,lh,rh}_{haa,hfe,kfe}_joint")
+                 .Doc("each joint's calibration (docs/hal.md, calibration)"));
   }
 };
 

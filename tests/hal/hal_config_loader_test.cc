@@ -1,8 +1,11 @@
 #include "config/hal_config_loader.h"
 
 #include <gtest/gtest.h>
+#include <yaml-cpp/yaml.h>
 
+#include <cstdint>
 #include <fstream>
+#include <numbers>
 #include <sstream>
 #include <string>
 
@@ -89,6 +92,40 @@ TEST(HalConfigLoader, MissingFileNamesIt) {
   }
 }
 
+// The joints' numbers are the file's, converted as the hand-written reader converted them
+// (degrees times pi / 180, integers cast): the key list must not change a bit of a calibration.
+TEST(HalConfigLoader, JointCalibrationsAreTheFileNumbersBitForBit) {
+  constexpr double kDeg = std::numbers::pi / 180.0;
+  const hal::HalConfig f = LoadHalConfig(DefaultYamlPath());
+  const YAML::Node joints = YAML::LoadFile(DefaultYamlPath())["joints"];
+  int cylinders = 0;
+  for (int j = 0; j < hal::kNumJoints; ++j) {
+    const std::string name(hal::JointName(j));
+    const YAML::Node n = joints[name];
+    const hal::JointCalibration& c = f.joints[static_cast<std::size_t>(j)];
+    const bool rotary = n["actuator"].as<std::string>() == "rotary";
+    EXPECT_EQ(c.kind, rotary ? hal::ActuatorKind::kRotary : hal::ActuatorKind::kCylinder) << name;
+    EXPECT_EQ(c.encoder.counts_per_rev, n["encoder"]["counts_per_rev"].as<double>()) << name;
+    EXPECT_EQ(c.encoder.offset_counts, n["encoder"]["offset_counts"].as<std::int32_t>()) << name;
+    EXPECT_EQ(c.encoder.direction, n["encoder"]["direction"].as<int>()) << name;
+    const YAML::Node s = n[rotary ? "torque_sensor" : "load_cell"];
+    EXPECT_EQ(c.effort.gain, s[rotary ? "gain_Nm_per_count" : "gain_N_per_count"].as<double>()) << name;
+    EXPECT_EQ(c.effort.offset_counts, s["offset_counts"].as<std::int32_t>()) << name;
+    EXPECT_EQ(c.q_min_rad, kDeg * n["range_deg"][0].as<double>()) << name;
+    EXPECT_EQ(c.q_max_rad, kDeg * n["range_deg"][1].as<double>()) << name;
+    EXPECT_EQ(c.torque_limit_Nm, n["torque_limit_Nm"].as<double>()) << name;
+    const hal::CylinderGeometry none;
+    const YAML::Node g = n["cylinder"];
+    EXPECT_EQ(c.cylinder.a_m, rotary ? none.a_m : g["a_m"].as<double>()) << name;
+    EXPECT_EQ(c.cylinder.b_m, rotary ? none.b_m : g["b_m"].as<double>()) << name;
+    EXPECT_EQ(c.cylinder.phi0_rad, rotary ? none.phi0_rad : kDeg * g["phi0_deg"].as<double>()) << name;
+    EXPECT_EQ(c.cylinder.phi_per_q,
+              rotary ? none.phi_per_q : static_cast<double>(g["phi_per_q"].as<int>())) << name;
+    cylinders += rotary ? 0 : 1;
+  }
+  EXPECT_EQ(cylinders, 8);
+}
+
 TEST(HalConfigLoader, BadValuesNameFileLineKeyExpectedAndFound) {
   std::string m = ErrorAfterEdit("node_id: 2, joint: lh_hfe_joint", "node_id: two, joint: lh_hfe_joint");
   EXPECT_NE(m.find("edited.yaml:"), std::string::npos) << m;
@@ -115,12 +152,21 @@ TEST(HalConfigLoader, BadValuesNameFileLineKeyExpectedAndFound) {
   EXPECT_NE(m.find("key 'joints.rh_knee'"), std::string::npos) << m;
 
   m = ErrorAfterEdit("range_deg: [-70, 25]", "range_deg: [25, -70]");
-  EXPECT_NE(m.find("range_deg': expected min < max"), std::string::npos) << m;
+  EXPECT_NE(m.find("range_deg': expected min < max, found '25', '-70'"), std::string::npos) << m;
 
   // renamed: the old key is refused with the new one's name, not silently ignored
   m = ErrorAfterEdit("  max_held_cycles: 3", "  max_missed_cycles: 3");
   EXPECT_NE(m.find("key 'timing.max_missed_cycles': expected timing.max_held_cycles"),
             std::string::npos) << m;
+
+  // a joint's keys follow its actuator: a rotary joint has no cylinder, a cylinder no torque sensor
+  m = ErrorAfterEdit("    torque_sensor: {gain_Nm_per_count", "    cylinder: {a_m: 0.05}\n    torque_sensor: {gain_Nm_per_count");
+  EXPECT_NE(m.find("key 'joints.lf_haa_joint.cylinder': expected one of the keys"), std::string::npos) << m;
+  EXPECT_NE(m.find("unknown key 'cylinder'"), std::string::npos) << m;
+  m = ErrorAfterEdit("    load_cell: {gain_N_per_count", "    torque_sensor: {gain_N_per_count");
+  EXPECT_NE(m.find("unknown key 'torque_sensor'"), std::string::npos) << m;
+  m = ErrorAfterEdit("phi_per_q: 1}", "phi_per_q: 0.5}");
+  EXPECT_NE(m.find("cylinder.phi_per_q': expected +1 or -1, found '0.5'"), std::string::npos) << m;
 
   m = ErrorAfterEdit("direction: -1", "direction: 0");
   EXPECT_NE(m.find("encoder.direction': expected +1 or -1"), std::string::npos) << m;

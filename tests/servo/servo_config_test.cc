@@ -115,6 +115,21 @@ TEST(ServoConfigYaml, EveryDeadlineKeyReachesDeadlineConfig) {
 
 // the real-time read's wait for answers still owed, in periods (at most half of one),
 // so that it scales with the rate
+// after the command-line overrides the rate-scaled gains are checked again, with their keys' bounds
+TEST(ServoConfigYaml, ValidateChecksTheRateScaledGainsWithTheirKeysBounds) {
+  servo::ServoConfig c = config::LoadServoConfig(kConfigDir / "hyq_servo.yaml");
+  EXPECT_NO_THROW(config::ValidateServoConfig(c));
+  c.controller.feedback.kd_acc(4) = 0.6 * c.rate_hz();
+  try {
+    config::ValidateServoConfig(c);
+    FAIL();
+  } catch (const hal::ConfigError& e) {
+    const std::string m = e.what();
+    EXPECT_NE(m.find("key 'controller.gains.kd_acc': expected kd_acc · dt <= 0.5 at 1000 Hz, found 600"),
+              std::string::npos) << m;
+  }
+}
+
 TEST(ServoConfigYaml, AnswerWaitIsAFractionOfThePeriod) {
   EXPECT_DOUBLE_EQ(Parse("loop:\n  answer_wait_periods: 0.25\n").answer_wait_s(), 250e-6);
   EXPECT_DOUBLE_EQ(Parse("loop:\n  rate_hz: 800\n  answer_wait_periods: 0.25\n").answer_wait_s(), 312.5e-6);
