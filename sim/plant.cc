@@ -5,7 +5,6 @@
 #include <functional>
 #include <sstream>
 #include <stdexcept>
-#include <cstdlib>
 
 #include <Eigen/Geometry>
 #include <mujoco/mujoco.h>
@@ -125,31 +124,6 @@ std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config) {
       << "    <accelerometer name=\"imu_accel\" site=\"imu\"/>\n  </sensor>\n";
   x << "</mujoco>\n";
   return x.str();
-}
-
-GroundPatch ParseGroundPatch(const std::string& text, const std::string& what) {
-  GroundPatch p;
-  double* fields[] = {&p.x0_m, &p.x1_m, &p.y0_m, &p.y1_m, &p.mu};
-  std::size_t start = 0;
-  for (int i = 0; i < 5; ++i) {
-    const std::size_t comma = text.find(',', start);
-    const bool last = i == 4;
-    if (last != (comma == std::string::npos))
-      throw std::invalid_argument(what + ": expected five numbers X0,X1,Y0,Y1,MU, found '" +
-                                  text + "'");
-    const std::string field = text.substr(start, last ? std::string::npos : comma - start);
-    char* end = nullptr;
-    *fields[i] = std::strtod(field.c_str(), &end);
-    if (field.empty() || end != field.c_str() + field.size() || !std::isfinite(*fields[i]))
-      throw std::invalid_argument(what + ": expected a number for field " + std::to_string(i + 1) +
-                                  " of X0,X1,Y0,Y1,MU, found '" + field + "'");
-    start = comma + 1;
-  }
-  if (!(p.x0_m < p.x1_m) || !(p.y0_m < p.y1_m))
-    throw std::invalid_argument(what + ": expected X0 < X1 and Y0 < Y1, found '" + text + "'");
-  if (p.mu < 0.0)
-    throw std::invalid_argument(what + ": expected MU >= 0, found '" + text + "'");
-  return p;
 }
 
 double JointFrictionConfig::Torque(int joint, double qd) const noexcept {

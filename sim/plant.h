@@ -27,10 +27,6 @@ struct GroundPatch {
   }
 };
 
-/// Parses "X0,X1,Y0,Y1,MU" (hyq-sim --ground-patch); throws std::invalid_argument naming `what`,
-/// the form expected and what was found.
-GroundPatch ParseGroundPatch(const std::string& text, const std::string& what);
-
 /// Model error: the plant's bodies differ from the model the controller uses.
 struct ModelErrorConfig {
   /// A rigid point mass fixed to the trunk (kg; position in the trunk frame, m), lumped into the

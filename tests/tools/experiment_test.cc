@@ -104,7 +104,7 @@ TEST(ClosedLoop, EstimatedFrictionCrossesTheIcyPatchLikeTheOracle) {
     c.reference = servo::Reference::Kind::kTrot;
     c.duration_s = 10.0;
     c.mu = 1.0;
-    c.patches = {sim::ParseGroundPatch("0.6,1.2,-2,2,0.1", "patch")};
+    c.patches = {sim::GroundPatch{0.6, 1.2, -2.0, 2.0, 0.1}};
     c.mu_source = source;
     c.controller = StandardController(ControllerKind::kTwoStageId);
     c.initial_perturbation_rad = 0.02;
