@@ -21,7 +21,7 @@ LegKinematics::LegKinematics(const Model& model) : model_(model) {}
 
 Eigen::Vector3d LegKinematics::Foot(int leg, const Eigen::Vector3d& q, Eigen::Matrix3d* J,
                                     const Eigen::Vector3d* qd,
-                                    Eigen::Vector3d* Jdot_qd) const noexcept {
+                                    Eigen::Vector3d* Jdot_qd, Eigen::Matrix3d* Jw) const noexcept {
   // the chain trunk → hip → upper → lower with the base at the origin (world = B)
   Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
   Eigen::Vector3d p = Eigen::Vector3d::Zero();
@@ -38,6 +38,8 @@ Eigen::Vector3d LegKinematics::Foot(int leg, const Eigen::Vector3d& q, Eigen::Ma
   const Eigen::Vector3d p_F = p + R * foot.p_BF_B;
   if (J != nullptr)
     for (int k = 0; k < 3; ++k) J->col(k) = axis[k].cross(p_F - origin[k]);
+  if (Jw != nullptr)
+    for (int k = 0; k < 3; ++k) Jw->col(k) = axis[k];
   if (qd != nullptr && Jdot_qd != nullptr) {
     // d/dt (a_k × (p − o_k)) with ȧ_k = ω_{k−1} × a_k (ω_{k−1}: the body carrying axis k) and
     // ȯ_k = Σ_{j<k} a_j × (o_k − o_j) q̇_j

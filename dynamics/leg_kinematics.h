@@ -31,10 +31,11 @@ class LegKinematics {
   explicit LegKinematics(const Model& model);
 
   /// Foot sphere centre of `leg` for its three joint angles, in the base frame; J (3 × 3) =
-  /// ∂p/∂q and J̇ q̇ when qd is given.
+  /// ∂p/∂q, J̇ q̇ when qd is given, and Jw (3 × 3, the joint axes): the lower leg's angular
+  /// velocity relative to the base is Jw q̇.
   Eigen::Vector3d Foot(int leg, const Eigen::Vector3d& q, Eigen::Matrix3d* J = nullptr,
-                       const Eigen::Vector3d* qd = nullptr,
-                       Eigen::Vector3d* Jdot_qd = nullptr) const noexcept;
+                       const Eigen::Vector3d* qd = nullptr, Eigen::Vector3d* Jdot_qd = nullptr,
+                       Eigen::Matrix3d* Jw = nullptr) const noexcept;
 
   /// Inverse kinematics (Newton on the 3 × 3 leg Jacobian, starting from `guess`), then
   /// q̇ = J⁻¹ v and q̈ = J⁻¹ (a − J̇ q̇). kOutOfLimits when the solution leaves the joint limits

@@ -87,6 +87,12 @@ void Serialize(A* a, lcmt_hyq_base_state* m) {
   a->Visit("orientation_wxyz", "1", &m->orientation_wxyz, kWxyzLabels);
   a->Visit("velocity_m_s", "m/s", &m->velocity_m_s, kXyzLabels);
   a->Visit("angular_velocity_rad_s", "rad/s", &m->angular_velocity_rad_s, kXyzLabels);
+  a->Visit("position_std_m", "m", &m->position_std_m, kXyzLabels);
+  a->Visit("velocity_std_m_s", "m/s", &m->velocity_std_m_s, kXyzLabels);
+  a->Visit("orientation_std_rad", "rad", &m->orientation_std_rad, kXyzLabels);
+  a->Visit("gyro_bias_rad_s", "rad/s", &m->gyro_bias_rad_s, kXyzLabels);
+  a->Visit("accel_bias_m_s2", "m/s2", &m->accel_bias_m_s2, kXyzLabels);
+  a->Visit("still", "bool", &m->still);
 }
 
 template <class A>
@@ -96,6 +102,11 @@ void Serialize(A* a, lcmt_hyq_contact_state* m) {
   a->Visit("controller", "enum", &m->controller);
   a->Visit("stance_reference", "bool", &m->stance_reference, kFootLabels);
   a->Visit("stance_estimated", "bool", &m->stance_estimated, kFootLabels);
+  a->Visit("contact_probability", "1", &m->contact_probability, kFootLabels);
+  a->Visit("foot_used", "bool", &m->foot_used, kFootLabels);
+  a->Visit("foot_rejected", "bool", &m->foot_rejected, kFootLabels);
+  a->Visit("foot_mahalanobis_sq", "1", &m->foot_mahalanobis_sq, kFootLabels);
+  a->Visit("foot_rejections", "count", &m->foot_rejections, kFootLabels);
   a->Visit("mu", "1", &m->mu, kFootLabels);
   a->Visit("contact_force_N", "N", &m->contact_force_N, kFootLabels, kXyzLabels);
   a->Visit("stage1_status", "enum", &m->stage1_status);

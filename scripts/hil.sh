@@ -6,8 +6,10 @@
 #   scripts/hil.sh [--out DIR] [--duration S] [--reference trot|figure_eight|stand]
 #                  [--controller two_stage|stage1|noslip|pid|pd_gravity] [--mu MU] [--clock lockstep|realtime]
 #                  [--fault T:KIND:TARGET[:ARG]]... [--sim-arg ARG]... [--servod-arg ARG]...
-#                  [--build DIR] [--no-logger] [--candump] [--bus-trace] [--sigterm-after S] [--quiet]
+#                  [--build DIR] [--config FILE] [--no-logger] [--candump] [--bus-trace] [--sigterm-after S] [--quiet]
 #
+# --config FILE: the daemon's configuration (default config/hyq_servo_sim.yaml), e.g. a copy with
+#   other estimator or gain settings.
 # --bus-trace: hyq-candump records each bus (OUT/bus_<name>.log, candump format, kernel receive
 #   timestamps), then scripts/bus_trace_report.py times the boards' answers (OUT/bus_trace.txt):
 #   what to look at when a real-time run stops on input_missing.
@@ -19,9 +21,9 @@ set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
 
 out=hil-run duration=5 reference=trot controller=two_stage mu=0.1 clock=lockstep
-build="$here/build/ci" logger=1 candump=0 bus_trace=0 quiet=0 sigterm_after= servod_bin=
+build="$here/build/ci" config="$here/config/hyq_servo_sim.yaml" logger=1 candump=0 bus_trace=0 quiet=0 sigterm_after= servod_bin=
 faults=() sim_args=() servod_args=()
-usage() { sed -n '2,17p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
+usage() { sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
 while (($#)); do
   case "$1" in
     --out) out="$2"; shift ;;
@@ -36,6 +38,7 @@ while (($#)); do
     --servod-arg) servod_args+=("$2"); shift ;;
     --servod-arg=*) servod_args+=("${1#--servod-arg=}") ;;
     --build) build="$2"; shift ;;
+    --config) config="$(cd "$(dirname "$2")" && pwd)/$(basename "$2")"; shift ;;
     --no-logger) logger=0 ;;
     --sigterm-after) sigterm_after="$2"; shift ;;
     --servod-bin) servod_bin="$2"; shift ;;
@@ -55,7 +58,7 @@ if [[ -z "${HYQ_HIL_NETNS:-}" ]]; then
   ((EUID == 0)) || ns=(unshare -rn)
   exec "${ns[@]}" env HYQ_HIL_NETNS=1 "$0" --out "$out" --duration "$duration" \
     --reference "$reference" --controller "$controller" --mu "$mu" --clock "$clock" \
-    --build "$build" "${faults[@]}" $( ((logger)) || echo --no-logger) \
+    --build "$build" --config "$config" "${faults[@]}" $( ((logger)) || echo --no-logger) \
     ${sigterm_after:+--sigterm-after "$sigterm_after"} ${servod_bin:+--servod-bin "$servod_bin"} \
     $( ((candump)) && echo --candump) $( ((bus_trace)) && echo --bus-trace) $( ((quiet)) && echo --quiet) \
     "${sim_args[@]/#/--sim-arg=}" "${servod_args[@]/#/--servod-arg=}"
@@ -117,7 +120,7 @@ sim_pid=$!
 sleep 0.2
 ((quiet)) && q=(--quiet) || q=()
 set +e
-"$servod" --config "$here/config/hyq_servo_sim.yaml" --clock "$clock" --auto-enable --reference "$reference" --controller "$controller" \
+"$servod" --config "$config" --clock "$clock" --auto-enable --reference "$reference" --controller "$controller" \
   --mu "$mu" --duration "$duration" --exit-on-fault --summary "$out/servod.json" \
   --lcm-url "$url" "${q[@]}" "${servod_args[@]}" 2>"$out/servod.log" &
 servod_pid=$!

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "hal/clock.h"
 #include "servo/runtime/output_checker.h"
@@ -382,6 +383,16 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
     base.angular_velocity_rad_s[i] = v(3 + i);
   }
   for (int i = 0; i < 4; ++i) base.orientation_wxyz[i] = q(3 + i);
+  const Eigen::Vector3d p_std = estimator_.position_std_m(), v_std = estimator_.velocity_std_m_s(),
+                        o_std = estimator_.orientation_std_rad();
+  for (int i = 0; i < 3; ++i) {
+    base.position_std_m[i] = p_std(i);
+    base.velocity_std_m_s[i] = v_std(i);
+    base.orientation_std_rad[i] = o_std(i);
+    base.gyro_bias_rad_s[i] = estimator_.gyro_bias_rad_s()(i);
+    base.accel_bias_m_s2[i] = estimator_.accel_bias_m_s2()(i);
+  }
+  base.still = estimator_.still() ? 1 : 0;
 
   hyq_lcm::lcmt_hyq_contact_state& c = s.contact;
   hyq_lcm::lcmt_hyq_friction_estimate& fe = s.friction;
@@ -391,6 +402,12 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
   for (std::size_t f = 0; f < kNumFeet; ++f) {
     c.stance_reference[f] = joint_ref_.stance[f] ? 1 : 0;
     c.stance_estimated[f] = estimator_.stance()[f] ? 1 : 0;
+    const FootEstimate& fe_est = estimator_.feet()[f];
+    c.contact_probability[f] = fe_est.contact_probability;
+    c.foot_used[f] = fe_est.used ? 1 : 0;
+    c.foot_rejected[f] = fe_est.rejected ? 1 : 0;
+    c.foot_mahalanobis_sq[f] = fe_est.mahalanobis_sq;
+    c.foot_rejections[f] = static_cast<std::int32_t>(std::min<std::int64_t>(fe_est.rejections, std::numeric_limits<std::int32_t>::max()));
     c.mu[f] = pipeline_->environment().mu[f];
     const auto& imp = out_.impulses[f];
     const Eigen::Vector3d F =
