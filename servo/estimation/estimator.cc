@@ -70,9 +70,11 @@ EstimatorStatus StateEstimator::Update(const hal::ProcessImage& image,
   if (!initialised_) {
     // roll and pitch from gravity, yaw 0, height from the model's standing posture until the
     // feet say otherwise
-    if (accel_at_imu_B.norm() < 1e-6) return EstimatorStatus::kNoImu;
+    // (the IMU's centripetal acceleration removed: the robot may be turning)
+    const Eigen::Vector3d up = accel_at_imu_B - gyro_B.cross(gyro_B.cross(p_BI_));
+    if (up.norm() < 1e-6) return EstimatorStatus::kNoImu;
     Eigen::Quaterniond q0;
-    q0.setFromTwoVectors(accel_at_imu_B.normalized(), Eigen::Vector3d::UnitZ());
+    q0.setFromTwoVectors(up.normalized(), Eigen::Vector3d::UnitZ());
     const Eigen::Matrix3d R0 = q0.toRotationMatrix();
     const double yaw = std::atan2(R0(1, 0), R0(0, 0));
     q0 = Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitZ()) * q0;
