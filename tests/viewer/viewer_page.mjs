@@ -57,6 +57,8 @@ const SUMMARY = () => {
     jointCycle: f.joint ? f.joint.cycle : -1,
     playback: f.playback || null, ignored: f.controls_ignored, events: (v.events || []).length,
     eventRows: document.getElementById('events').children.length,
+    velocityCycle: Number(document.getElementById('velocity').dataset.cycle),
+    velocitySigma: Number(document.getElementById('velocity').dataset.sigma),
   };
 };
 const state = () => page.evaluate(`(${SUMMARY})()`);
@@ -135,6 +137,18 @@ async function live() {
   check(compared >= 20 && mismatched === 0,
     `stance count shown = HYQ_CONTACT's stance_estimated of that cycle (${compared} compared, ${mismatched} differ)`);
   check(counts.size >= 2, `the stance count changes as the feet step (${[...counts].sort().join(', ')})`);
+  // the velocity's uncertainty shown = HYQ_BASE_STATE's standard deviation of that cycle
+  const base = new Map(readCsv(path.join(work, 'csv', 'HYQ_BASE_STATE.csv')).map((r) => [r.cycle,
+    Math.max(r['velocity_std_m_s.x'], r['velocity_std_m_s.y'])]));
+  let sigmas = 0, sigmaOff = 0;
+  for (const s of samples) {
+    if (s.velocityCycle < 0 || !base.has(s.velocityCycle)) continue;
+    sigmas += 1;
+    const want = base.get(s.velocityCycle);
+    if (Math.abs(want - s.velocitySigma) > 1e-4 * Math.abs(want) || !(s.velocitySigma > 0)) sigmaOff += 1;
+  }
+  check(sigmas >= 20 && sigmaOff === 0,
+    `velocity σ shown = HYQ_BASE_STATE's velocity_std_m_s of that cycle (${sigmas} compared, ${sigmaOff} differ)`);
   const ghost = samples.filter((s) => s.ghost).length;
   check(ghost >= 3, `the truth ghost appears (${ghost} samples)`);
   check(last.events >= 1 && last.eventRows >= 1, `events listed (${last.events} received, ${last.eventRows} shown)`);

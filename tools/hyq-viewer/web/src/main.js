@@ -109,6 +109,10 @@ const plots = {
   torque: makePlot('commanded joint torque (N·m)', JN.map((n, i) => ({ label: n, stroke: JOINT_COLORS[i], width: 1 })), 170),
   qp: makePlot('QP solve time (µs)', [{ label: 'stage1+stage2', stroke: '#42d4f4' },
     { label: 'max since last frame', stroke: '#f58231' }], 130),
+  // the estimate with its ±2σ band (the EKF's own uncertainty) and, with hyq-sim --lcm-truth, the truth
+  velocity: makePlot('base velocity x (m/s), estimate ± 2σ', [{ label: 'estimate', stroke: '#f2cc60' },
+    { label: '−2σ', stroke: '#8a7a40', dash: [4, 4], width: 1 }, { label: '+2σ', stroke: '#8a7a40', dash: [4, 4], width: 1 },
+    { label: 'truth', stroke: '#40d0ff', width: 1 }], 150),
 };
 let lastPlotT = -Infinity;
 function plotFrame(f) {
@@ -126,6 +130,10 @@ function plotFrame(f) {
   push(plots.tracking, [f.joint.tracking_error_rad]);
   push(plots.torque, f.torque ? f.torque.tau_command_Nm : JN.map(() => null));
   push(plots.qp, f.contact ? [f.contact.qp_solve_us, f.qp_solve_max_us] : [null, null]);
+  const b = f.base;
+  const sx = b && b.velocity_std_m_s ? b.velocity_std_m_s[0] : null;
+  push(plots.velocity, b ? [b.velocity_m_s[0], sx === null ? null : b.velocity_m_s[0] - 2 * sx,
+    sx === null ? null : b.velocity_m_s[0] + 2 * sx, f.truth ? f.truth.velocity_m_s[0] : null] : [null, null, null, null]);
 }
 
 // --- frames ---
@@ -147,6 +155,13 @@ function showFrame(f) {
   if (f.base) {
     if (robot) setBase(robot, f.base.position_m, f.base.orientation_wxyz);
     $('base').textContent = f.base.position_m.map((x) => x.toFixed(2)).join(', ') + ' m';
+    // horizontal speed ± 2σ (the filter's standard deviation, the larger horizontal one)
+    const vel = $('velocity');
+    const sd = f.base.velocity_std_m_s ? Math.max(f.base.velocity_std_m_s[0], f.base.velocity_std_m_s[1]) : NaN;
+    vel.textContent = `${f.base.velocity_m_s.slice(0, 2).map((x) => x.toFixed(3)).join(', ')} m/s`
+      + (Number.isFinite(sd) ? ` ± ${(2 * sd * 100).toFixed(1)} cm/s (2σ)` : '');
+    vel.dataset.cycle = String(f.base.cycle);
+    vel.dataset.sigma = String(Number.isFinite(sd) ? sd : -1);
   }
   if (f.truth && ghost) {
     ghost.root.visible = true;
