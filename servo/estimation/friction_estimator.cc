@@ -53,6 +53,7 @@ const FrictionEstimator::Place* FrictionEstimator::Recall(const Eigen::Vector3d&
 }
 
 void FrictionEstimator::Update(const std::array<FootFrictionInput, kNumFeet>& in,
+                               const std::array<bool, kNumFeet>& evidence_ok,
                                const std::array<double, kNumFeet>& upper_mu, double dt) noexcept {
   const FrictionEstimatorConfig& c = config_;
   for (std::size_t i = 0; i < kNumFeet; ++i) {
@@ -67,6 +68,7 @@ void FrictionEstimator::Update(const std::array<FootFrictionInput, kNumFeet>& in
     f.force_W = finite ? x.force_W : Eigen::Vector3d::Zero();
     f.ratio = loaded ? x.force_W.head<2>().norm() / fn : 0.0;
     f.slip_speed_m_s = finite && x.stance ? x.velocity_W.head<2>().norm() : 0.0;
+    f.evidence_held = false;
 
     if (!loaded) {
       // lift-off: the estimate stays at the place the foot landed
@@ -97,6 +99,15 @@ void FrictionEstimator::Update(const std::array<FootFrictionInput, kNumFeet>& in
         // the impact: neither a slip nor a bound
         slip_run_[i] = 0;
         f.slipping = false;
+      } else if (!evidence_ok[i]) {
+        // v_t against an untrusted base velocity: neither a slip nor a bound. The run restarts
+        // rather than pausing: slip_cycles asks for that many measured cycles in a row, and a
+        // false slip (μ̂ dropped to ρ at once) costs more than a real one found slip_cycles after
+        // the evidence returns
+        slip_run_[i] = 0;
+        f.slipping = false;
+        f.evidence_held = true;
+        ++f.held_cycles;
       } else if (slip_run_[i] >= c.slip_cycles) {
         // sliding: the contact is on its cone, ρ = μ
         if (!f.slipping) {

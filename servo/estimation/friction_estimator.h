@@ -14,7 +14,10 @@
 //                                    contact is on its cone), so μ̂ ← ρ at once on the first
 //                                    slipping cycle and filtered while the slip lasts, confidence 1.
 // The first touchdown_blank_s of a footfall prove nothing either way: the impact's accelerations
-// are what the force estimate neglects, and the foot settles. A foot that lifts off leaves its
+// are what the force estimate neglects, and the foot settles. Nor does a cycle in which the state
+// estimator does not vouch for the base velocity the foot's slip velocity is measured against
+// (Update's evidence_ok: a base velocity dragged by another, slipping foot makes a sticking foot
+// look like it slips). Both hold μ̂ and restart the slip count. A foot that lifts off leaves its
 // estimate at the place it landed (a fixed ring of places); a footfall within the memory radius
 // of a remembered place starts from that estimate, elsewhere from the prior. Stage I gets μ_ctrl = clamp((1 − margin) μ̂, min_mu, upper bound), where the
 // upper bound is the configured or operator-commanded μ of that foot.
@@ -115,8 +118,10 @@ struct FootFriction {
   double lower_bound = 0.0;   // the largest sticking ρ of this stance
   bool loaded = false;        // in stance and carrying at least min_normal_N
   bool slipping = false;
+  bool evidence_held = false;  // loaded and past the blank, but evidence_ok false: μ̂ held
   std::uint32_t slips = 0;    // slip events (a new slip after sticking or a new footfall)
   std::uint32_t footfalls = 0;
+  std::uint32_t held_cycles = 0;  // cycles evidence_held (since Reset)
 };
 
 class FrictionEstimator {
@@ -129,8 +134,12 @@ class FrictionEstimator {
   /// Forgets every place and starts each foot from the prior.
   void Reset() noexcept;
 
-  /// One cycle of dt seconds; `upper_mu` the configured or commanded μ per foot.
+  /// One cycle of dt seconds; `evidence_ok` per foot: the base velocity the foot's slip velocity
+  /// is measured against can be trusted this cycle (false: the foot neither raises nor lowers
+  /// μ̂, its slip count restarts, evidence_held says so); `upper_mu` the configured or commanded μ
+  /// per foot.
   void Update(const std::array<FootFrictionInput, kNumFeet>& in,
+              const std::array<bool, kNumFeet>& evidence_ok,
               const std::array<double, kNumFeet>& upper_mu, double dt) noexcept;
 
   const std::array<FootFriction, kNumFeet>& feet() const noexcept { return feet_; }

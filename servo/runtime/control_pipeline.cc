@@ -3,6 +3,18 @@
 #include <algorithm>
 
 namespace hyq::servo {
+namespace {
+
+// The feet whose slip velocity is measured against a base velocity the state estimator vouches
+// for (FrictionEstimator::Update's evidence_ok). The estimator's velocity carries no such flag
+// per foot: every foot.
+std::array<bool, kNumFeet> SlipEvidence() noexcept {
+  std::array<bool, kNumFeet> ok;
+  ok.fill(true);
+  return ok;
+}
+
+}  // namespace
 
 ControlPipeline::ControlPipeline(const dynamics::Model& model, const ControllerConfig& controller,
                                  const FrictionEstimatorConfig& friction,
@@ -52,7 +64,7 @@ void ControlPipeline::EstimateFriction(const dynamics::CycleDynamics& dyn, const
     const Eigen::Vector3d tau_leg = tau_measured_Nm.segment<dynamics::kJointsPerLeg>(3 * f);
     in[i] = MeasureFoot(model_, dyn, v, f, stance[i], tau_leg);
   }
-  friction_.Update(in, mu_ceiling.mu, dt_);
+  friction_.Update(in, SlipEvidence(), mu_ceiling.mu, dt_);
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = friction_.feet()[f].mu_control;
 }
 

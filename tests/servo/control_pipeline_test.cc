@@ -93,7 +93,7 @@ TEST(ControlPipeline, SameAsTheStagesAssembledByHand) {
         feet[static_cast<std::size_t>(f)] =
             MeasureFoot(HyqModel(), *c.dyn, c.in.v, f, c.ref.stance[static_cast<std::size_t>(f)],
                         c.tau_measured.segment<3>(3 * f));
-      friction.Update(feet, ceiling.mu, kDt);
+      friction.Update(feet, kAll, ceiling.mu, kDt);
       ContactEnvironment env = ceiling;
       for (std::size_t f = 0; f < kNumFeet; ++f) env.mu[f] = friction.feet()[f].mu_control;
       *scratch = *c.dyn;

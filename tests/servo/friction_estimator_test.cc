@@ -1,6 +1,7 @@
 // The per-foot friction estimator (servo/estimation/friction_estimator.h) on synthetic forces and
 // foot velocities: sticking raises the bound, a slip sets the value, footfalls start from the
-// place's estimate or the prior, the commanded μ bounds it, no heap in the cycle.
+// place's estimate or the prior, the commanded μ bounds it, untrusted slip evidence holds it, no
+// heap in the cycle.
 #include "servo/estimation/friction_estimator.h"
 
 #include <cmath>
@@ -46,10 +47,13 @@ std::array<FootFrictionInput, kNumFeet> Foot0(double ratio, double speed, double
 }
 
 constexpr std::array<double, kNumFeet> kUpper{1.0, 1.0, 1.0, 1.0};
+constexpr std::array<bool, kNumFeet> kTrusted{true, true, true, true};
+constexpr std::array<bool, kNumFeet> kFoot0Untrusted{false, true, true, true};
 
 void Step(FrictionEstimator& e, const std::array<FootFrictionInput, kNumFeet>& in, int cycles,
-         const std::array<double, kNumFeet>& upper = kUpper) {
-  for (int i = 0; i < cycles; ++i) e.Update(in, upper, kDt);
+         const std::array<double, kNumFeet>& upper = kUpper,
+         const std::array<bool, kNumFeet>& evidence_ok = kTrusted) {
+  for (int i = 0; i < cycles; ++i) e.Update(in, evidence_ok, upper, kDt);
 }
 
 TEST(FrictionEstimator, AFootfallStartsFromThePrior) {
@@ -131,6 +135,60 @@ TEST(FrictionEstimator, TheImpactOfAFootfallProvesNothing) {
   EXPECT_EQ(e.foot(0).slips, 1u);
 }
 
+// The state estimator does not vouch for the base velocity foot 0's slip velocity is measured
+// against: an apparent slip does not lower μ̂, a stick does not raise it, and each held cycle is
+// counted; with the evidence trusted the same inputs do.
+TEST(FrictionEstimator, UntrustedEvidenceNeitherLowersNorRaisesTheEstimate) {
+  FrictionEstimator e(Config());
+  Step(e, Foot0(0.12, 0.2), 50, kUpper, kFoot0Untrusted);  // slip speed, opposed: looks like a slip
+  EXPECT_FALSE(e.foot(0).slipping);
+  EXPECT_TRUE(e.foot(0).evidence_held);
+  EXPECT_EQ(e.foot(0).held_cycles, 50u);
+  EXPECT_EQ(e.foot(0).slips, 0u);
+  EXPECT_DOUBLE_EQ(e.foot(0).mu, 1.0);
+  EXPECT_DOUBLE_EQ(e.foot(0).mu_control, 0.8);
+  EXPECT_NEAR(e.foot(0).ratio, 0.12, 1e-12);  // still measured and published
+  EXPECT_FALSE(e.foot(1).evidence_held);      // an unloaded foot holds nothing
+  // trusted: the same inputs are a slip after slip_cycles in a row (the held cycles did not count)
+  Step(e, Foot0(0.12, 0.2), 2);
+  EXPECT_FALSE(e.foot(0).slipping);
+  EXPECT_FALSE(e.foot(0).evidence_held);
+  Step(e, Foot0(0.12, 0.2), 1);
+  EXPECT_TRUE(e.foot(0).slipping);
+  EXPECT_NEAR(e.foot(0).mu, 0.12, 1e-12);
+  EXPECT_EQ(e.foot(0).slips, 1u);
+  EXPECT_EQ(e.foot(0).held_cycles, 50u);
+  // sticking at ρ = 0.3 while untrusted: no bound, no rise towards the prior, confidence kept
+  Step(e, Foot0(0.3, 0.0), 100, kUpper, kFoot0Untrusted);
+  EXPECT_NEAR(e.foot(0).mu, 0.12, 1e-12);
+  EXPECT_DOUBLE_EQ(e.foot(0).lower_bound, 0.0);
+  EXPECT_DOUBLE_EQ(e.foot(0).confidence, 1.0);
+  EXPECT_EQ(e.foot(0).held_cycles, 150u);
+  Step(e, Foot0(0.3, 0.0), 1);  // trusted: the bound at once, then the rise
+  EXPECT_NEAR(e.foot(0).mu, 0.3 + 0.5 * kDt, 1e-12);
+}
+
+// A slip run interrupted by an untrusted cycle starts again: slip_cycles trusted cycles in a row
+TEST(FrictionEstimator, AnUntrustedCycleRestartsTheSlipCount) {
+  FrictionEstimator e(Config());
+  Step(e, Foot0(0.3, 0.0), 10);
+  Step(e, Foot0(0.12, 0.2), 2);
+  Step(e, Foot0(0.12, 0.2), 1, kUpper, kFoot0Untrusted);
+  Step(e, Foot0(0.12, 0.2), 2);
+  EXPECT_FALSE(e.foot(0).slipping);
+  EXPECT_DOUBLE_EQ(e.foot(0).mu, 1.0);
+  Step(e, Foot0(0.12, 0.2), 1);
+  EXPECT_TRUE(e.foot(0).slipping);
+  EXPECT_EQ(e.foot(0).slips, 1u);
+  // the evidence lost during a slip: the slip ends there, its return is a new slip at the new ρ
+  Step(e, Foot0(0.10, 0.2), 1, kUpper, kFoot0Untrusted);
+  EXPECT_FALSE(e.foot(0).slipping);
+  EXPECT_NEAR(e.foot(0).mu, 0.12, 1e-12);
+  Step(e, Foot0(0.10, 0.2), 3);
+  EXPECT_EQ(e.foot(0).slips, 2u);
+  EXPECT_NEAR(e.foot(0).mu, 0.10, 1e-12);
+}
+
 TEST(FrictionEstimator, BetweenStickAndSlipSpeedsTheEstimateHolds) {
   FrictionEstimator e(Config());
   Step(e, Foot0(0.2, 0.2), 3);
@@ -199,7 +257,8 @@ TEST(FrictionEstimator, NoHeapInTheCycle) {
   testing::NoHeapGuard guard;
   for (int k = 0; k < 200; ++k) {
     const double x = 0.01 * k;
-    Step(e, Foot0(k % 3 ? 0.1 : 0.3, k % 50 < 10 ? 0.3 : 0.0, x, k % 40 < 30), 1);
+    Step(e, Foot0(k % 3 ? 0.1 : 0.3, k % 50 < 10 ? 0.3 : 0.0, x, k % 40 < 30), 1, kUpper,
+         k % 7 ? kTrusted : kFoot0Untrusted);
   }
   EXPECT_EQ(guard.allocations(), 0u);
 }

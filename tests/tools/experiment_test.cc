@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "config/hal_config_loader.h"
+#include "config/servo_config_loader.h"
 #include "dynamics/cycle_dynamics.h"
 #include "servo/control/two_stage_id.h"
 #include "tests/dynamics/hyq_fixture.h"
@@ -175,8 +176,8 @@ TEST(ClosedLoop, RealisticPlantTrotsWithoutFalling) {
 
 // the trunk's disturbance observer finds a known payload (5 kg at (0.10, 0.05, 0.08) m
 // in the trunk frame, on a plant otherwise the model) while the two-stage ID holds the robot
-// standing: within 0.5 s the force is the payload's weight within 10 %, and after 1 s the moment
-// about the base origin is the payload's within 15 % of m g times its lever. With the estimate in
+// standing: within 0.5 s the force is the payload's weight within 10 %, and after 2 s the moment
+// about the base origin is the payload's within 10 % of m g times its lever. With the estimate in
 // the controller's model the robot tracks better than without it; and with no payload it says
 // (almost) nothing.
 TEST(ClosedLoop, DisturbanceObserverFindsAPayload) {
@@ -208,7 +209,7 @@ TEST(ClosedLoop, DisturbanceObserverFindsAPayload) {
   EXPECT_GE(settled_at, 0.0);
   EXPECT_LE(settled_at, 0.5);
   for (int k = 0; k < 2; ++k)
-    EXPECT_NEAR(last.disturbance(3 + k), n(k), 0.15 * kMass * kG * p_B.head<2>().norm()) << k;
+    EXPECT_NEAR(last.disturbance(3 + k), n(k), 0.10 * kMass * kG * p_B.head<2>().norm()) << k;
   // with the estimate in the model, the standing robot tracks better than without it
   c.disturbance.enabled = false;
   const ExperimentResult off = RunExperiment(HyqModel(), c);
@@ -220,6 +221,40 @@ TEST(ClosedLoop, DisturbanceObserverFindsAPayload) {
   c.profile.model_error.payload_kg = 0.0;
   const ExperimentResult none = RunExperiment(HyqModel(), c);
   EXPECT_LT(std::abs(none.samples.back().disturbance(2)), 0.02 * kMass * kG);
+}
+
+// ... and costs the trot nothing: with the shipped (tuned) gains, 10 s of trot on μ = 0.1, the
+// two-stage ID's mean error with the observer is within 2 % of its error without it, on the ideal
+// and on the realistic plant (measured 2026-12-04: +0.5 % and −2.5 %; the 18-row residual
+// filtered and then split cost +10.5 % and +1.4 %: docs/baselines.md)
+TEST(ClosedLoop, DisturbanceObserverDoesNotCostTheTrot) {
+  const hal::HalConfig hal = config::LoadHalConfig(testing::SourceDir() / "config/hyq_hal.yaml");
+  const servo::ControllerConfig shipped =
+      config::LoadServoConfig((testing::SourceDir() / "config/hyq_servo_sim.yaml").string()).controller;
+  for (const bool realistic : {false, true}) {
+    double error[2];
+    for (const bool on : {false, true}) {
+      ExperimentConfig c;
+      c.reference = servo::Reference::Kind::kTrot;
+      c.duration_s = 10.0;
+      c.mu = 0.1;
+      c.seed = 1;
+      c.initial_perturbation_rad = 0.02;
+      c.controller = StandardController(ControllerKind::kTwoStageId);
+      c.controller.feedback = shipped.feedback;
+      c.controller.swing_gain_scale = shipped.swing_gain_scale;
+      if (realistic) c.profile = sim::PlantProfile::Realistic();
+      c.joints.assign(hal.joints.begin(), hal.joints.end());
+      c.disturbance.enabled = on;
+      const ExperimentResult r = RunExperiment(HyqModel(), c);
+      ASSERT_FALSE(r.fell);
+      error[on] = r.mean_error_rad;
+    }
+    std::printf("%s trot, mu 0.1, shipped gains: mean error %.5f rad without the observer, %.5f "
+                "with it (%+.1f %%)\n", realistic ? "realistic" : "ideal", error[0], error[1],
+                100.0 * (error[1] / error[0] - 1.0));
+    EXPECT_LE(error[1], 1.02 * error[0]) << (realistic ? "realistic" : "ideal");
+  }
 }
 
 TEST(ClosedLoop, SameSeedSameRun) {

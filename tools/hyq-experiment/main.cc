@@ -59,7 +59,10 @@ constexpr std::string_view kUsage =
     "                   config/hyq_servo_sim.yaml, each controller its own, from\n"
     "                   scripts/tune_gains.py; docs/baselines.md), untuned (one PD for all,\n"
     "                   300 N m/rad and 8 N m s/rad, no integral: the first wave's rule), or a\n"
-    "                   servo configuration FILE whose controller.gains are used\n";
+    "                   servo configuration FILE whose controller.gains are used\n"
+    "  --disturbance-observer\n"
+    "                   every scenario's controller with the trunk's disturbance observer in its\n"
+    "                   model (controller.disturbance_observer; docs/baselines.md)\n";
 
 struct Scenario {
   std::string name;
@@ -285,6 +288,7 @@ struct Options {
   sim::PlantProfile profile;
   std::string gains_source = "tuned";
   std::optional<servo::ControllerConfig> gains;  // none: untuned
+  bool disturbance_observer = false;
 };
 
 Options Parse(cli::CommandLine& cl, const std::vector<Scenario>& scenarios) {
@@ -307,6 +311,7 @@ Options Parse(cli::CommandLine& cl, const std::vector<Scenario>& scenarios) {
       wanted.push_back(v);
     } else if (cl.Flag("--out")) o.out_dir = cl.Value();
     else if (cl.Flag("--gains")) o.gains_source = cl.Value();
+    else if (cl.Flag("--disturbance-observer")) o.disturbance_observer = true;
     else cl.Unknown();
   }
   if (o.list) return o;
@@ -349,6 +354,7 @@ int Run(const Options& o) {
       cfg.controller.pid_swing_gain_scale = gains->pid_swing_gain_scale;
       cfg.controller.pdg_swing_gain_scale = gains->pdg_swing_gain_scale;
     }
+    cfg.disturbance.enabled = o.disturbance_observer;
     cfg.profile = o.profile;
     cfg.joints.assign(hal_config.joints.begin(), hal_config.joints.end());
     const auto r = experiment::RunExperiment(model, cfg, [&](double f) {
@@ -391,7 +397,8 @@ int Run(const Options& o) {
                        {"fallbacks", {{"stage1_failed", r.fallbacks.stage1_failed}, {"stage2_failed", r.fallbacks.stage2_failed}}},
                        {"realtime_factor", s.cfg.duration_s / wall},
                        {"profile", nlohmann::json::parse(o.profile.Json())},
-                       {"gains", o.gains_source}};
+                       {"gains", o.gains_source},
+                       {"disturbance_observer", o.disturbance_observer}};
     if (!s.cfg.patches.empty()) {
       nlohmann::json settling = nlohmann::json::array();
       for (const auto& st : r.settling)
