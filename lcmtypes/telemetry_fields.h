@@ -145,6 +145,8 @@ void Serialize(A* a, lcmt_hyq_friction_estimate* m) {
   a->Visit("slipping", "bool", &m->slipping, kFootLabels);
   a->Visit("slips", "count", &m->slips, kFootLabels);
   a->Visit("footfalls", "count", &m->footfalls, kFootLabels);
+  a->Visit("evidence_held", "bool", &m->evidence_held, kFootLabels);
+  a->Visit("held_cycles", "count", &m->held_cycles, kFootLabels);
 }
 
 template <class A>

@@ -3,19 +3,6 @@
 #include <algorithm>
 
 namespace hyq::servo {
-namespace {
-
-// The feet whose slip velocity is measured against a base velocity the state estimator vouches
-// for (FrictionEstimator::Update's evidence_ok). The estimator's velocity carries no such flag
-// per foot: every foot.
-std::array<bool, kNumFeet> SlipEvidence() noexcept {
-  std::array<bool, kNumFeet> ok;
-  ok.fill(true);
-  return ok;
-}
-
-}  // namespace
-
 ControlPipeline::ControlPipeline(const dynamics::Model& model, const ControllerConfig& controller,
                                  const FrictionEstimatorConfig& friction,
                                  const DisturbanceObserverConfig& disturbance, double period_s)
@@ -42,10 +29,11 @@ void ControlPipeline::HoldEnvironment(const ContactEnvironment& mu_ceiling) noex
 IdStatus ControlPipeline::Compute(const dynamics::CycleDynamics& dyn, const VectorQ& q,
                                   const VectorV& v, const VectorJ& tau_measured_Nm,
                                   const std::array<bool, kNumFeet>& stance,
+                                  const std::array<bool, kNumFeet>& slip_evidence,
                                   const JointReference& ref, const ContactEnvironment& mu_ceiling,
                                   IdOutput* out) noexcept {
   env_ = mu_ceiling;
-  if (friction_enabled_) EstimateFriction(dyn, v, tau_measured_Nm, stance, mu_ceiling);
+  if (friction_enabled_) EstimateFriction(dyn, v, tau_measured_Nm, stance, slip_evidence, mu_ceiling);
   // the observer's trunk wrench corrects the model's h for the controller only (h − d_b), after
   // the friction estimate took its forces from the nominal h
   if (!disturbance_enabled_) return controller_.Compute(dyn, q, v, ref, env_, dt_, out);
@@ -57,6 +45,7 @@ IdStatus ControlPipeline::Compute(const dynamics::CycleDynamics& dyn, const Vect
 void ControlPipeline::EstimateFriction(const dynamics::CycleDynamics& dyn, const VectorV& v,
                                        const VectorJ& tau_measured_Nm,
                                        const std::array<bool, kNumFeet>& stance,
+                                       const std::array<bool, kNumFeet>& slip_evidence,
                                        const ContactEnvironment& mu_ceiling) noexcept {
   std::array<FootFrictionInput, kNumFeet> in;
   for (int f = 0; f < kNumFeet; ++f) {
@@ -64,7 +53,7 @@ void ControlPipeline::EstimateFriction(const dynamics::CycleDynamics& dyn, const
     const Eigen::Vector3d tau_leg = tau_measured_Nm.segment<dynamics::kJointsPerLeg>(3 * f);
     in[i] = MeasureFoot(model_, dyn, v, f, stance[i], tau_leg);
   }
-  friction_.Update(in, SlipEvidence(), mu_ceiling.mu, dt_);
+  friction_.Update(in, slip_evidence, mu_ceiling.mu, dt_);
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = friction_.feet()[f].mu_control;
 }
 

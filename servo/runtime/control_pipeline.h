@@ -31,11 +31,12 @@ class ControlPipeline {
 
   /// One cycle at the measured state: `dyn` = ComputeCycleDynamics(model, q, v) (kOk),
   /// `tau_measured_Nm` the load cells' joint torques, `stance` the feet taken as loaded for the
-  /// friction estimate, `ref` the joint reference, `mu_ceiling` the μ per foot Stage I may get at
+  /// friction estimate, `slip_evidence` the feet whose slip velocity is measured against a base
+  /// velocity the state estimator vouches for (StateEstimator::slip_evidence), `ref` the joint reference, `mu_ceiling` the μ per foot Stage I may get at
   /// most (with the estimator off, what it gets). Fills *out; returns the controller's status.
   IdStatus Compute(const dynamics::CycleDynamics& dyn, const VectorQ& q, const VectorV& v,
                    const VectorJ& tau_measured_Nm, const std::array<bool, kNumFeet>& stance,
-                   const JointReference& ref, const ContactEnvironment& mu_ceiling,
+                   const std::array<bool, kNumFeet>& slip_evidence, const JointReference& ref, const ContactEnvironment& mu_ceiling,
                    IdOutput* out) noexcept;
 
   /// A cycle without control (not ACTIVE, or its inputs failed their checks): the μ the
@@ -55,6 +56,7 @@ class ControlPipeline {
  private:
   void EstimateFriction(const dynamics::CycleDynamics& dyn, const VectorV& v,
                         const VectorJ& tau_measured_Nm, const std::array<bool, kNumFeet>& stance,
+                        const std::array<bool, kNumFeet>& slip_evidence,
                         const ContactEnvironment& mu_ceiling) noexcept;
 
   const dynamics::Model& model_;

@@ -242,7 +242,8 @@ void ServoLoop::RunController() noexcept {
   VectorJ tau_m;
   const auto& joints = hal_.image().joints;
   for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
-  id_status_ = pipeline_->Compute(*dyn_, q, v, tau_m, estimator_.stance(), joint_ref_, env_, &out_);
+  id_status_ = pipeline_->Compute(*dyn_, q, v, tau_m, estimator_.stance(), estimator_.slip_evidence(),
+                                  joint_ref_, env_, &out_);
   if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
   if (FellBackOnDeadline(out_)) {
     ++stats_.controller_fallbacks_deadline;
@@ -427,6 +428,9 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
     fe.slipping[f] = fr.slipping ? 1 : 0;
     fe.slips[f] = static_cast<std::int32_t>(fr.slips);
     fe.footfalls[f] = static_cast<std::int32_t>(fr.footfalls);
+    fe.evidence_held[f] = fr.evidence_held ? 1 : 0;
+    fe.held_cycles[f] = static_cast<std::int32_t>(std::min<std::int64_t>(
+        static_cast<std::int64_t>(fr.held_cycles), std::numeric_limits<std::int32_t>::max()));
   }
   c.stage1_status = static_cast<std::int8_t>(out_.stage1.status);
   c.stage2_status = static_cast<std::int8_t>(out_.stage2.status);

@@ -85,7 +85,7 @@ TEST(ControlPipeline, SameAsTheStagesAssembledByHand) {
       const VectorV bias_before = c.dyn->bias;
       IdOutput a;
       const IdStatus sa = pipeline.Compute(*c.dyn, c.in.q, c.in.v, c.tau_measured, c.ref.stance,
-                                           c.ref, ceiling, &a);
+                                           kAll, c.ref, ceiling, &a);
       EXPECT_EQ(c.dyn->bias, bias_before) << "the pipeline changed the cycle's dynamics";
 
       std::array<FootFrictionInput, kNumFeet> feet;
@@ -118,8 +118,8 @@ TEST(ControlPipeline, WithTheEstimatorsOffTheControllerGetsTheCeiling) {
   ControlPipeline pipeline(HyqModel(), Gains(ControllerKind::kTwoStageId), {}, {}, kDt);
   Controller ctl(HyqModel(), Gains(ControllerKind::kTwoStageId));
   IdOutput a, b;
-  EXPECT_EQ(pipeline.Compute(*c.dyn, c.in.q, c.in.v, c.tau_measured, c.ref.stance, c.ref, ceiling,
-                             &a),
+  EXPECT_EQ(pipeline.Compute(*c.dyn, c.in.q, c.in.v, c.tau_measured, c.ref.stance, kAll, c.ref,
+                             ceiling, &a),
             ctl.Compute(*c.dyn, c.in.q, c.in.v, c.ref, ceiling, kDt, &b));
   EXPECT_EQ(a.tau_Nm, b.tau_Nm);
   EXPECT_EQ(pipeline.environment().mu, ceiling.mu);
@@ -135,15 +135,15 @@ TEST(ControlPipeline, NoHeapAfterWarmup) {
                               ControllerKind::kPdGravity}) {
     ControlPipeline pipeline(HyqModel(), Gains(kind), FrictionOn(), ObserverOn(), kDt);
     IdOutput out;
-    (void)pipeline.Compute(*a.dyn, a.in.q, a.in.v, a.tau_measured, a.ref.stance, a.ref, ceiling,
-                           &out);
-    (void)pipeline.Compute(*b.dyn, b.in.q, b.in.v, b.tau_measured, b.ref.stance, b.ref, ceiling,
-                           &out);
+    (void)pipeline.Compute(*a.dyn, a.in.q, a.in.v, a.tau_measured, a.ref.stance, kAll, a.ref,
+                           ceiling, &out);
+    (void)pipeline.Compute(*b.dyn, b.in.q, b.in.v, b.tau_measured, b.ref.stance, kAll, b.ref,
+                           ceiling, &out);
     testing::NoHeapGuard guard;
     for (int k = 0; k < 20; ++k) {
       const Cycle& c = k % 2 ? a : b;
-      (void)pipeline.Compute(*c.dyn, c.in.q, c.in.v, c.tau_measured, c.ref.stance, c.ref, ceiling,
-                             &out);
+      (void)pipeline.Compute(*c.dyn, c.in.q, c.in.v, c.tau_measured, c.ref.stance, kAll, c.ref,
+                             ceiling, &out);
       pipeline.HoldEnvironment(ceiling);
     }
     pipeline.Reset();

@@ -44,6 +44,8 @@ const char* ToString(MuSource s) noexcept {
 
 namespace {
 
+constexpr std::array<bool, servo::kNumFeet> kEveryFoot{true, true, true, true};
+
 // The estimate is "settled" on ground of true μ within this: 0.05 absolute on slippery ground,
 // 20 % of the truth on grippy ground
 bool Settled(double estimate, double truth) {
@@ -146,8 +148,9 @@ ExperimentResult RunExperiment(const dynamics::Model& model, const ExperimentCon
       if (cfg.mu_source == MuSource::kOracle)
         for (int f = 0; f < servo::kNumFeet; ++f)
           mu_ceiling.mu[static_cast<std::size_t>(f)] = plant.foot_friction(f);
-      (void)pipeline.Compute(*dyn, q, v, tau_measured, rs.joints.stance, rs.joints, mu_ceiling,
-                             &out);
+      // the plant's true velocity: every foot's slip is evidence
+      (void)pipeline.Compute(*dyn, q, v, tau_measured, rs.joints.stance, kEveryFoot, rs.joints,
+                             mu_ceiling, &out);
       tau = out.tau_Nm;
       if (cfg.record_id_inputs) r.id_inputs.push_back(pipeline.controller().last_input());
     }
