@@ -183,11 +183,13 @@ void StateEstimator::CorrectWithFeet(const VectorJ& qdj, const Eigen::Vector3d& 
     f.touchdowns = contacts_[l].touchdowns();
     f.used = f.rejected = false;
     f.mahalanobis_sq = 0.0;
+    f.contact_velocity_W.setZero();
     if (f.contact_probability < r_min) continue;
     ++candidates;
     H3 H;
     Eigen::Vector3d z;
     foot_measurement(l, &H, &z);
+    f.contact_velocity_W = -z;
     f.mahalanobis_sq = ekf_.MahalanobisSquared<3>(H, z, foot_noise(l));
     accept[l] = f.mahalanobis_sq <= settings_.gate_chi2;
     accepted += accept[l] ? 1 : 0;
@@ -224,12 +226,18 @@ void StateEstimator::CorrectWithFeet(const VectorJ& qdj, const Eigen::Vector3d& 
     ekf_.Correct<1>(Hz, zz, Rz, hold_biases);
   }
 
-  // slip evidence: a settled foot in contact, the base anchored by another settled accepted foot
+  // slip evidence: a settled foot in contact that does not lift off, the base anchored by
+  // another settled accepted foot
   for (std::size_t l = 0; l < kNumFeet; ++l) {
     bool anchored = false;
     for (std::size_t m = 0; m < kNumFeet; ++m)
       anchored = anchored || (m != l && feet_[m].used && !feet_[m].settling);
-    slip_evidence_[l] = anchored && feet_[l].contact_probability >= r_min && !feet_[l].settling;
+    // lifting off: the contact point rises, or moves faster than a foot slides (at lift-off
+    // the swing's torques still read as load on a massless leg)
+    const Eigen::Vector3d& vc = feet_[l].contact_velocity_W;
+    const bool lifting = vc.z() > settings_.lift_speed_m_s || vc.norm() > settings_.max_slip_speed_m_s;
+    slip_evidence_[l] = anchored && feet_[l].contact_probability >= r_min && !feet_[l].settling &&
+                        !lifting;
   }
 }
 
