@@ -14,9 +14,9 @@
 // N = 131072 and T = 1 ms, and is the mean velocity over the last sample: T/2 late. (2) lets
 // through α/(2 − α) of the variance of (1)'s quantisation noise and adds (1 − α)/α · T of lag
 // at low frequency: after a velocity step the reading rises as 1 − (1 − α)^k. With f_c =
-// 200 Hz (kBoardVelocityCutoffHz): α = 0.715, 0.40 ms more lag (0.90 ms in all), the noise's σ
-// × 0.75. The filter and its f_c are this project's choice for a HyQ-class board, not HyQ's
-// documented one; docs/simulation.md gives the reasons and what each f_c costs.
+// 250 Hz = 1/(4T) (kBoardVelocityCutoffHz): α = 0.792, 0.26 ms more lag (0.76 ms in all), the
+// noise's σ × 0.81. The filter and its f_c are this project's choice for a HyQ-class board, not
+// HyQ's documented one; docs/simulation.md gives the reasons and what each f_c costs.
 //
 // Step() allocates nothing and never throws.
 #pragma once
@@ -29,6 +29,9 @@
 #include "hal/calibration.h"
 
 namespace hyq::sim {
+
+/// The boards' low-pass, f_c of (2): a quarter of the 1 kHz sample rate (docs/simulation.md).
+inline constexpr double kBoardVelocityCutoffHz = 250.0;
 
 class BoardVelocity {
  public:

@@ -26,15 +26,13 @@
 
 #include "dynamics/model.h"
 #include "hal/calibration.h"
+#include "sim/board_velocity.h"
 #include "sim/hydraulic_actuator.h"
 #include "sim/plant.h"
 
 namespace hyq::sim {
 
 inline constexpr int kMaxDelayCycles = 50;
-
-/// The boards' velocity filter, f_c of sim/board_velocity.h (docs/simulation.md, "Sensors").
-inline constexpr double kBoardVelocityCutoffHz = 200.0;
 
 /// The joint velocity the actuator boards report.
 enum class JointVelocity : std::uint8_t {

@@ -33,7 +33,7 @@ std::vector<hal::JointCalibration> Joints(double counts_per_rev) {
 constexpr double kFine = 1073741824.0;
 
 TEST(BoardVelocity, ARampReadsItsRateAfterTheFirstOrderRise) {
-  for (double fc : {0.0, 50.0, 200.0}) {
+  for (double fc : {0.0, 50.0, kBoardVelocityCutoffHz}) {
     BoardVelocity b(Joints(kFine), kT, fc);
     const double alpha = fc > 0 ? 1 - std::exp(-2 * std::numbers::pi * fc * kT) : 1.0;
     EXPECT_NEAR(b.alpha(), alpha, 1e-15);
@@ -53,7 +53,7 @@ TEST(BoardVelocity, ARampReadsItsRateAfterTheFirstOrderRise) {
 
 // (3) at the sine's frequency: H(e^{iωT}) = α (1 − e^{−iωT}) / (T (1 − (1 − α) e^{−iωT}))
 TEST(BoardVelocity, ASineComesOutWithTheTransferFunctionsGainAndPhase) {
-  const double fc = 200.0, f = 25.0, amp = 0.3;
+  const double fc = kBoardVelocityCutoffHz, f = 25.0, amp = 0.3;
   const double wt = 2 * std::numbers::pi * f;
   BoardVelocity b(Joints(kFine), kT, fc);
   const double alpha = b.alpha();
@@ -77,7 +77,7 @@ TEST(BoardVelocity, ASineComesOutWithTheTransferFunctionsGainAndPhase) {
 
 TEST(BoardVelocity, TheDefaultEncoderResolvesOneCountPerSampleAndAveragesToTheRate) {
   const double n = 131072.0, count_rate = 2 * std::numbers::pi / n / kT;  // 47.9 mrad/s
-  BoardVelocity raw(Joints(n), kT, 0.0), filtered(Joints(n), kT, 200.0);
+  BoardVelocity raw(Joints(n), kT, 0.0), filtered(Joints(n), kT, kBoardVelocityCutoffHz);
   const double w = 0.123456;  // rad/s: 2.58 counts per sample, never whole
   raw.Reset(dynamics::VectorJ::Zero());
   filtered.Reset(dynamics::VectorJ::Zero());

@@ -137,7 +137,7 @@ std::string Help() {
       "                         difference of successive encoder counts over the step through a\n"
       "                         first-order low-pass; exact: the plant's velocity (as before\n"
       "                         the boards computed it; reproduces earlier runs)\n"
-      "  --velocity-cutoff HZ   the boards' low-pass cut-off (default 200; 0: the bare difference)\n"
+      "  --velocity-cutoff HZ   the boards' low-pass cut-off (default 250; 0: the bare difference)\n"
       "  --write-model FILE     write the plant's MuJoCo model (MJCF, model error included) and exit\n"
       "  --fault T:KIND:TARGET[:ARG]  at simulated time T: silent|corrupt|drop|nan|bus-off|emcy;\n"
       "                         TARGET a device (lf_kfe, imu) or for bus-off a bus (rh); ARG\n"
