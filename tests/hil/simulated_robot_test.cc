@@ -99,9 +99,10 @@ TEST(SimulatedRobot, LockStepIsDeterministicBitForBit) {
       << "another seed gives other sensor noise, hence another run";
 }
 
-// The joint velocity the boards report: with `exact` the plant's own velocity, the very value
-// hyq-sim reported before the boards computed it; by default the boards' (sim/board_velocity.h)
-// from the angles their encoders saw. The HAL reads either to 1 count/s.
+// The joint velocity the boards report: with `exact` the plant's own velocity, bit for bit (and
+// the noise draws are the same either way, so `exact` runs equal the runs made without the
+// boards' velocity); by default the boards' (sim/board_velocity.h) from the angles their encoders
+// saw. The HAL reads either to 1 count/s.
 TEST(SimulatedRobot, JointVelocityIsTheBoardsOrWithExactThePlantsOwn) {
   for (sim::JointVelocity mode : {sim::JointVelocity::kExact, sim::JointVelocity::kBoard}) {
     sim::SimulatedRobotConfig rc = Standing();
