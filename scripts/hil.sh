@@ -16,6 +16,8 @@
 # --servod-bin PATH: another hyq-servod (e.g. a thread-sanitizer build) against this build's hyq-sim.
 # --sigterm-after S: SIGTERM to the daemon after S wall seconds (with --duration 0: run until then).
 # Defaults: 5 s of trot on mu = 0.1 with the two-stage ID, lock-step, OUT = hil-run/.
+# The last line is the estimator's accuracy against the truth (scripts/estimator_accuracy.py
+#   --summary, its numbers in OUT/estimator_accuracy.json): lock-step runs with the logger only.
 # Exit status: the daemon's (0 controlled stop, 3 stopped in FAULT), 4 when the robot fell.
 set -euo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
@@ -141,6 +143,7 @@ if ((bus_trace)); then
     echo "hil.sh: bus_trace_report.py failed: see $out/bus_trace.txt" >&2
 fi
 
+set +e
 /usr/bin/python3 - "$out" "$servod_rc" <<'PY'
 import json, sys, os
 out, rc = sys.argv[1], int(sys.argv[2])
@@ -195,5 +198,18 @@ json.dump({"fell_while_active": fell, "t_stop_s": t_stop}, open(os.path.join(out
 sys.exit(4 if fell else 0)
 PY
 py_rc=$?
+# the estimate against the truth: the two share one clock only in lock-step
+if [[ "$clock" != lockstep ]]; then
+  echo "  estimator        not measured: a real-time run's telemetry and truth share no clock (lock-step only)"
+elif ((!logger)); then
+  echo "  estimator        not measured: no telemetry log (--no-logger)"
+elif [[ ! -s "$out/truth.csv" || ! -s "$out/telemetry.lcmlog" ]]; then
+  echo "  estimator        not measured: $out/truth.csv or $out/telemetry.lcmlog is missing or empty"
+elif line=$(/usr/bin/python3 "$here/scripts/estimator_accuracy.py" "$out" --summary \
+              --json "$out/estimator_accuracy.json" 2>&1); then
+  echo "  estimator        ${line#estimator: }"
+else
+  echo "  estimator        not measured: ${line//$'\n'/; }"
+fi
 ((servod_rc != 0)) && exit "$servod_rc"
 exit "$py_rc"

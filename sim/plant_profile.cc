@@ -30,6 +30,21 @@ class Uniform {
 
 }  // namespace
 
+const char* ToString(JointVelocity v) noexcept {
+  switch (v) {
+    case JointVelocity::kBoard: return "board";
+    case JointVelocity::kExact: return "exact";
+  }
+  return "?";
+}
+
+JointVelocity JointVelocityByName(std::string_view name, const std::string& what) {
+  if (name == "board") return JointVelocity::kBoard;
+  if (name == "exact") return JointVelocity::kExact;
+  throw std::invalid_argument(what + ": expected a joint velocity board or exact, found '" +
+                              std::string(name) + "'");
+}
+
 PlantProfile PlantProfile::Ideal() { return PlantProfile{}; }
 
 // The levels and their sources: docs/simulation.md, "Plant profiles".
@@ -53,6 +68,10 @@ PlantProfile PlantProfile::Realistic() {
   p.gyro_bias_rad_s = 0.0035;
   p.accel_bias_m_s2 = 0.05;
   p.bias_seed = 1;
+  p.encoder_noise_rad = 1.2e-5;   // a quarter of a count (47.9 µrad): read-out jitter, assumed
+  p.load_cell_noise_Nm = 0.1;     // 0.05 % of the sensors' full scale at the joint, assumed
+  p.gyro_noise_rad_s = 0.0166;    // 0.03 °/s/√Hz × √(1 kHz)
+  p.accel_noise_m_s2 = 0.0248;    // 80 µg/√Hz × √(1 kHz)
   return p;
 }
 
@@ -121,7 +140,12 @@ std::string PlantProfile::Json() const {
   }
   s << ", \"delay_cycles\": " << delay_cycles << ", \"load_cell_bias_Nm\": " << load_cell_bias_Nm
     << ", \"gyro_bias_rad_s\": " << gyro_bias_rad_s << ", \"accel_bias_m_s2\": " << accel_bias_m_s2
-    << ", \"bias_seed\": " << bias_seed << "}";
+    << ", \"bias_seed\": " << bias_seed << ", \"sensor_noise\": {\"encoder_rad\": "
+    << encoder_noise_rad << ", \"load_cell_Nm\": " << load_cell_noise_Nm << ", \"gyro_rad_s\": "
+    << gyro_noise_rad_s << ", \"accel_m_s2\": " << accel_noise_m_s2
+    << "}, \"joint_velocity\": \"" << ToString(joint_velocity) << "\"";
+  if (joint_velocity == JointVelocity::kBoard) s << ", \"velocity_cutoff_hz\": " << velocity_cutoff_hz;
+  s << "}";
   return s.str();
 }
 

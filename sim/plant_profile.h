@@ -11,6 +11,9 @@
 //  - transport delay: a set-point takes effect k plant steps after it was given
 //  - sensor biases: a load-cell offset per joint and IMU gyro / accelerometer biases, drawn
 //    from the seed
+//  - sensors (hyq-sim): Gaussian noise on the encoders, load cells and IMU, and the joint
+//    velocity the boards compute from their encoders (sim/board_velocity.h) or the plant's exact
+//    one
 #pragma once
 
 #include <array>
@@ -23,12 +26,21 @@
 
 #include "dynamics/model.h"
 #include "hal/calibration.h"
+#include "sim/board_velocity.h"
 #include "sim/hydraulic_actuator.h"
 #include "sim/plant.h"
 
 namespace hyq::sim {
 
 inline constexpr int kMaxDelayCycles = 50;
+
+/// The joint velocity the actuator boards report.
+enum class JointVelocity : std::uint8_t {
+  kBoard,  // from the encoder's counts, differenced and filtered (sim/board_velocity.h)
+  kExact,  // the plant's velocity, rounded to 1 count/s
+};
+/// "board", "exact".
+const char* ToString(JointVelocity v) noexcept;
 
 struct PlantProfile {
   std::string name = "ideal";
@@ -43,10 +55,18 @@ struct PlantProfile {
   double gyro_bias_rad_s = 0.0;
   double accel_bias_m_s2 = 0.0;
   std::uint64_t bias_seed = 1;
+  /// Sensor noise, Gaussian, σ per 1 ms sample (hyq-sim: SimulatedRobot draws it from its seed).
+  double encoder_noise_rad = 0.0;    // added to the angle before the encoder's quantisation
+  double load_cell_noise_Nm = 0.0;   // of the measured joint torque (load cell / HAA torque sensor)
+  double gyro_noise_rad_s = 0.0;     // per axis
+  double accel_noise_m_s2 = 0.0;     // per axis
+  /// What the boards report as joint velocity (hyq-sim), and the cut-off of their low-pass.
+  JointVelocity joint_velocity = JointVelocity::kBoard;
+  double velocity_cutoff_hz = kBoardVelocityCutoffHz;
 
   /// Today's plant: nothing of the above (hyq-sim keeps its --actuator-tau lag).
   static PlantProfile Ideal();
-  /// Every factor on at the levels of docs/simulation.md.
+  /// Every factor on at the levels of docs/simulation.md, sensor noise included.
   static PlantProfile Realistic();
   /// Copies the plant-side factors (model error, joint friction) into `pc`.
   void ApplyTo(PlantConfig* pc) const;
@@ -57,6 +77,10 @@ struct PlantProfile {
   /// One JSON object with every factor and its level (summaries, results.json).
   std::string Json() const;
 };
+
+/// "board" or "exact"; throws std::invalid_argument naming `what`, the names expected and what
+/// was found.
+JointVelocity JointVelocityByName(std::string_view name, const std::string& what);
 
 /// "ideal" or "realistic"; throws std::invalid_argument naming `what`, the names expected and
 /// what was found.

@@ -44,13 +44,22 @@ dynamics::VectorQ RestingQ(const dynamics::Model& model, double height_m) {
 
 /// The device side of one bus, counting the SYNCs that arrive (even those the emulator ignores,
 /// e.g. while its bus is off), so that lock-step follows the master's SYNCs on the wire.
+/// In lock-step it passes nothing on while a step is due: the emulator answers each bus in turn
+/// within one Poll, so the master, once the last bus's answer to SYNC k−1 is out, may send its
+/// cycle k (set-points and SYNC k) on a bus the same Poll has still to read; read then, that
+/// SYNC would be answered with the state before step k−1 and those set-points would act in it,
+/// by a race between the processes. Left on the wire, they are read after the step.
 class SimulatedRobot::SyncCounter final : public hal::CanChannel {
  public:
-  explicit SyncCounter(hal::CanChannel* inner) : inner_(inner) {}
+  SyncCounter(hal::CanChannel* inner, const SimulatedRobot* robot) : inner_(inner), robot_(robot) {}
   hal::CanStatus Send(std::span<const hal::CanFrame> f, std::size_t* sent) noexcept override {
     return inner_->Send(f, sent);
   }
   hal::CanStatus Receive(std::span<hal::CanFrame> out, std::size_t* received) noexcept override {
+    if (robot_->polling_lockstep_ && robot_->StepDue()) {
+      *received = 0;
+      return hal::CanStatus::kOk;
+    }
     const hal::CanStatus s = inner_->Receive(out, received);
     for (std::size_t i = 0; i < *received; ++i) {
       const hal::CanFrame& f = out[i];
@@ -66,6 +75,7 @@ class SimulatedRobot::SyncCounter final : public hal::CanChannel {
 
  private:
   hal::CanChannel* inner_;
+  const SimulatedRobot* robot_;
   std::uint64_t syncs_ = 0;
 };
 
@@ -79,9 +89,10 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
       holding_(cfg.hold),
       min_base_height_m_(model.standing_base_height_m),
       rng_(cfg.seed == 0 ? 0x9E3779B97F4A7C15ull : cfg.seed) {
+  const PlantProfile& p = cfg.profile;
   if (!(cfg.actuator_tau_s >= 0) || !(cfg.actuator_rate_limit_Nm_s >= 0) ||
-      !(cfg.encoder_noise_rad >= 0) || !(cfg.load_cell_noise_Nm >= 0) ||
-      !(cfg.gyro_noise_rad_s >= 0) || !(cfg.accel_noise_m_s2 >= 0))
+      !(p.encoder_noise_rad >= 0) || !(p.load_cell_noise_Nm >= 0) || !(p.gyro_noise_rad_s >= 0) ||
+      !(p.accel_noise_m_s2 >= 0))
     throw hal::ConfigError("simulated robot: time constants, rate limits and noise levels must be "
                            ">= 0");
   if (channels.size() != config.buses.size())
@@ -91,7 +102,7 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
   std::vector<hal::CanChannel*> wrapped;
   for (hal::CanChannel* c : channels) {
     if (c == nullptr) throw hal::ConfigError("simulated robot: a CAN channel is missing");
-    channels_.push_back(std::make_unique<SyncCounter>(c));
+    channels_.push_back(std::make_unique<SyncCounter>(c, this));
     wrapped.push_back(channels_.back().get());
   }
   emulator_ = std::make_unique<hal::Emulator>(config_, wrapped, cfg.seed);
@@ -104,6 +115,8 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
     actuation_ = std::make_unique<Actuation>(model, config.joints, cfg.profile, cfg.actuator_tau_s,
                                              cfg.actuator_rate_limit_Nm_s,
                                              config.timing.cycle_period_s);
+    board_velocity_ = std::make_unique<BoardVelocity>(config.joints, config.timing.cycle_period_s,
+                                                      cfg.profile.velocity_cutoff_hz);
   } catch (const std::invalid_argument& e) {
     throw hal::ConfigError(std::string("simulated robot: ") + e.what());
   }
@@ -112,6 +125,7 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
   q_hold_ = cfg.start_height_m > 0.0 ? RestingQ(model, cfg.start_height_m) : model.StandingQ();
   plant_->Reset(q_hold_, dynamics::VectorV::Zero());
   actuation_->Reset(q_hold_.tail<dynamics::kNumJoints>());
+  board_velocity_->Reset(q_hold_.tail<dynamics::kNumJoints>());
   R_BF_ = model.imu.R_BF;
   UpdateSensors();
 }
@@ -245,18 +259,25 @@ void SimulatedRobot::Step() noexcept {
 void SimulatedRobot::UpdateSensors() noexcept {
   const dynamics::VectorQ q = plant_->q();
   const dynamics::VectorV v = plant_->v();
+  const PlantProfile& p = cfg_.profile;
   SensorFrame f;
+  dynamics::VectorJ q_encoder;
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     const auto i = static_cast<std::size_t>(j);
     double qj = q(7 + j);
-    if (cfg_.encoder_noise_rad > 0) qj += cfg_.encoder_noise_rad * Gaussian();
+    if (p.encoder_noise_rad > 0) qj += p.encoder_noise_rad * Gaussian();
+    q_encoder(j) = qj;
     f.q[i] = qj;
-    f.v[i] = v(6 + j);
     double tau = actuation_->measured_Nm()(j);  // the actuator's output plus the load-cell bias
-    if (cfg_.load_cell_noise_Nm > 0) tau += cfg_.load_cell_noise_Nm * Gaussian();
+    if (p.load_cell_noise_Nm > 0) tau += p.load_cell_noise_Nm * Gaussian();
     tau_measured_(j) = tau;
     f.tau[i] = tau;
   }
+  // the joint velocity: the boards' own from the angles their encoders saw, or the plant's
+  board_velocity_->Step(q_encoder);
+  v_reported_ = p.joint_velocity == JointVelocity::kBoard ? board_velocity_->velocity_rad_s()
+                                                          : dynamics::VectorJ(v.tail<dynamics::kNumJoints>());
+  for (int j = 0; j < dynamics::kNumJoints; ++j) f.v[static_cast<std::size_t>(j)] = v_reported_(j);
   ImuReading r;
   if (holding_) {
     // at rest on the stand: no rotation, the specific force is -g
@@ -267,10 +288,10 @@ void SimulatedRobot::UpdateSensors() noexcept {
   }
   r.gyro_rad_s += gyro_bias_;
   r.specific_force_m_s2 += accel_bias_;
-  if (cfg_.gyro_noise_rad_s > 0)
-    for (int i = 0; i < 3; ++i) r.gyro_rad_s(i) += cfg_.gyro_noise_rad_s * Gaussian();
-  if (cfg_.accel_noise_m_s2 > 0)
-    for (int i = 0; i < 3; ++i) r.specific_force_m_s2(i) += cfg_.accel_noise_m_s2 * Gaussian();
+  if (p.gyro_noise_rad_s > 0)
+    for (int i = 0; i < 3; ++i) r.gyro_rad_s(i) += p.gyro_noise_rad_s * Gaussian();
+  if (p.accel_noise_m_s2 > 0)
+    for (int i = 0; i < 3; ++i) r.specific_force_m_s2(i) += p.accel_noise_m_s2 * Gaussian();
   imu_reported_ = r;
   f.gyro = {r.gyro_rad_s(0), r.gyro_rad_s(1), r.gyro_rad_s(2)};
   f.accel = {r.specific_force_m_s2(0), r.specific_force_m_s2(1), r.specific_force_m_s2(2)};
@@ -308,18 +329,27 @@ void SimulatedRobot::Poll(std::int64_t now_ns) noexcept {
   for (std::size_t b = 0; b < channels_.size(); ++b) counters_.syncs[b] = channels_[b]->syncs();
 }
 
+std::uint64_t SimulatedRobot::StepTarget(std::uint64_t* lo) const noexcept {
+  std::uint64_t l = UINT64_MAX, hi = 0;
+  for (const auto& c : channels_) {
+    l = std::min(l, c->syncs());
+    hi = std::max(hi, c->syncs());
+  }
+  if (lo != nullptr) *lo = l;
+  // every bus saw SYNC k; or a bus fell kMaxSyncLead behind (the master gave up on it)
+  return std::max(l, hi > kMaxSyncLead ? hi - kMaxSyncLead : 0);
+}
+
+bool SimulatedRobot::StepDue() const noexcept { return counters_.steps < StepTarget(nullptr); }
+
 int SimulatedRobot::PollLockStep() noexcept {
+  polling_lockstep_ = true;
   Poll(time_ns());
+  polling_lockstep_ = false;
   int steps = 0;
   for (;;) {
-    std::uint64_t lo = UINT64_MAX, hi = 0;
-    for (std::size_t b = 0; b < channels_.size(); ++b) {
-      lo = std::min(lo, counters_.syncs[b]);
-      hi = std::max(hi, counters_.syncs[b]);
-    }
-    // every bus saw SYNC k; or a bus fell kMaxSyncLead behind (the master gave up on it)
-    const std::uint64_t target = std::max(lo, hi > kMaxSyncLead ? hi - kMaxSyncLead : 0);
-    if (counters_.steps >= target) break;
+    std::uint64_t lo = 0;
+    if (counters_.steps >= StepTarget(&lo)) break;
     if (lo <= counters_.steps) ++counters_.lockstep_forced;
     Step();
     ++steps;

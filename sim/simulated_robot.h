@@ -13,9 +13,12 @@
 //      tau[k+1] = tau[k] + (1 - exp(-h / T)) (u[k] - tau[k])                    (1)
 //    (T = 0: tau = u), optionally limited in rate: |tau[k+1] - tau[k]| <= rmax h.
 //  - encoders: the emulator reports counts through the HAL calibration, c = c0 + round(d q N/2pi),
-//    i.e. quantised to one encoder count (2 pi / 131072 = 47.9 urad with the default YAML); the
-//    velocity to 1 count/s. Optional Gaussian noise (rad) is added before the quantisation.
-//  - load cells / torque sensors: the applied joint torque tau plus Gaussian noise N(0, s^2)
+//    i.e. quantised to one encoder count (2 pi / 131072 = 47.9 urad with the default YAML).
+//    Optional Gaussian noise (rad) is added before the quantisation.
+//  - joint velocity (PlantProfile::joint_velocity): by default what the board computes from
+//    those counts, their difference over the step through a first-order low-pass
+//    (sim/board_velocity.h); `exact`: the plant's velocity. Reported to 1 count/s.
+//  - load cells / torque sensors: the actuator's torque plus Gaussian noise N(0, s^2)
 //    (N·m at the joint), reported as the sensor counts for that torque at the current angle.
 //  - IMU at model.imu (upside down on the trunk): MuJoCo's gyro and accelerometer at that site
 //    (angular velocity and specific force in the IMU frame, from cacc of mj_rnePostConstraint,
@@ -27,7 +30,8 @@
 //
 // Lock-step (deterministic): PollLockStep() drains the channels through the emulator at simulated
 // time; the emulator answers each SYNC with the current state; when the SYNC of cycle k has been
-// received on every bus, the latest set-points go through (1) and the plant steps once. A bus
+// received on every bus, the latest set-points go through (1) and the plant steps once; once a
+// step is due, nothing more is read from any bus until it has been taken. A bus
 // whose SYNCs stop while another is kMaxSyncLead SYNCs ahead no longer holds the others back.
 // Real time: Poll(now) answers SYNCs with the latest state, Step() advances the physics; the
 // caller (RealtimeRunner) steps on absolute CLOCK_MONOTONIC deadlines.
@@ -48,6 +52,7 @@
 #include "hal/can_channel.h"
 #include "hal/emulator.h"
 #include "hal/hal_config.h"
+#include "sim/board_velocity.h"
 #include "sim/fault_spec.h"
 #include "sim/plant.h"
 #include "sim/plant_profile.h"
@@ -57,21 +62,18 @@ namespace hyq::sim {
 struct SimulatedRobotConfig {
   PlantConfig plant;                      // timestep_s is taken from the HAL's cycle period
   /// How the plant differs from the model: model error, hydraulic actuators instead of eq. (1),
-  /// joint friction, delay, sensor biases. Default: ideal (none of them).
+  /// joint friction, delay, sensor biases, sensor noise, and how the boards make the joint
+  /// velocity. Default: ideal (none of them; the boards' velocity).
   PlantProfile profile;
   double actuator_tau_s = 0.005;          // T of eq. (1); 0 = ideal actuator; unused with hydraulics
   double actuator_rate_limit_Nm_s = 0.0;  // 0 = none
-  double encoder_noise_rad = 0.0;         // σ before quantisation
-  double load_cell_noise_Nm = 0.0;        // σ of the measured joint torque
-  double gyro_noise_rad_s = 0.0;          // σ per axis
-  double accel_noise_m_s2 = 0.0;          // σ per axis
   Eigen::Vector3d gyro_bias_rad_s = Eigen::Vector3d::Zero();     // IMU frame
   Eigen::Vector3d accel_bias_m_s2 = Eigen::Vector3d::Zero();     // IMU frame
   bool hold = true;                       // hold at the start posture until all enabled
   /// The start posture: base height with the feet on the ground under their standing places
   /// (0: standing). Default: HyQ's resting crouch, from which the daemon stands it up.
   double start_height_m = 0.40;
-  std::uint64_t seed = 1;                 // sensor noise and the emulator's random drops
+  std::uint64_t seed = 1;                 // sensor noise (the profile's σ) and the emulator's random drops
   /// Ground contact: the trunk or a leg (not a foot) touches the ground, or the base is below
   /// this height. It is a sit-down when the base comes down no faster than max_sit_speed_m_s
   /// and the trunk is upright (tilt < 30°), a fall otherwise; after a sit-down, a tilt past 45°
@@ -186,11 +188,19 @@ class SimulatedRobot {
   Plant& plant() noexcept { return *plant_; }
   const Plant& plant() const noexcept { return *plant_; }
   const Actuation& actuation() const noexcept { return *actuation_; }
+  /// The velocity the boards computed at the last step (PlantProfile::joint_velocity board).
+  const BoardVelocity& board_velocity() const noexcept { return *board_velocity_; }
+  /// The joint velocity reported at the last step (the board's, or the plant's exact one).
+  const dynamics::VectorJ& reported_velocity_rad_s() const noexcept { return v_reported_; }
   hal::Emulator& emulator() noexcept { return *emulator_; }
   std::size_t num_buses() const noexcept { return channels_.size(); }
 
  private:
   class SyncCounter;
+  /// The steps the SYNCs seen so far call for; *lo (if given): the fewest SYNCs of any bus.
+  std::uint64_t StepTarget(std::uint64_t* lo) const noexcept;
+  /// A step is due (StepTarget above the steps taken).
+  bool StepDue() const noexcept;
   void UpdateSensors() noexcept;
   double Gaussian() noexcept;
 
@@ -201,15 +211,18 @@ class SimulatedRobot {
   std::vector<std::unique_ptr<SyncCounter>> channels_;
   std::unique_ptr<Plant> plant_;
   std::unique_ptr<Actuation> actuation_;
+  std::unique_ptr<BoardVelocity> board_velocity_;  // the boards' velocity from their encoders
   Eigen::Vector3d gyro_bias_, accel_bias_;  // the config's plus the profile's
   std::unique_ptr<hal::Emulator> emulator_;
   BoardBus* bus_ = nullptr;  // real time: the boards' own thread, when it runs
+  bool polling_lockstep_ = false;  // inside PollLockStep's Poll: SyncCounter holds frames back
   SetpointFrame setpoints_;  // the stepping thread's newest
   std::atomic<std::int64_t> sim_now_ns_{0};   // simulated time, for the bus thread's faults
   std::atomic<std::int64_t> last_sync_ns_{0};  // real time: when the newest SYNC was seen
   dynamics::VectorQ q_hold_;
   dynamics::VectorJ tau_applied_ = dynamics::VectorJ::Zero();
   dynamics::VectorJ tau_measured_ = dynamics::VectorJ::Zero();
+  dynamics::VectorJ v_reported_ = dynamics::VectorJ::Zero();
   ImuReading imu_reported_;
   Eigen::Matrix3d R_BF_;  // IMU in the trunk
   std::vector<FaultSpec> faults_;

@@ -6,11 +6,13 @@
 #include <atomic>
 #include <cmath>
 #include <cstring>
+#include <span>
 #include <stdexcept>
 #include <vector>
 
 #include "dynamics/cycle_dynamics.h"
 #include "hal/calibration.h"
+#include "hal/protocol.h"
 #include "tests/hil/hil_rig.h"
 #include "tests/support/no_heap_guard.h"
 #include "sim/fault_spec.h"
@@ -69,10 +71,10 @@ TEST(SimulatedRobot, HalReadsThePlantAnglesWithinOneEncoderCount) {
 std::vector<double> RunTruth(std::uint64_t seed) {
   sim::SimulatedRobotConfig rc = Standing();
   rc.seed = seed;
-  rc.load_cell_noise_Nm = 1.0;
-  rc.encoder_noise_rad = 1e-4;
-  rc.gyro_noise_rad_s = 0.01;
-  rc.accel_noise_m_s2 = 0.05;
+  rc.profile.load_cell_noise_Nm = 1.0;
+  rc.profile.encoder_noise_rad = 1e-4;
+  rc.profile.gyro_noise_rad_s = 0.01;
+  rc.profile.accel_noise_m_s2 = 0.05;
   LoopbackRig rig(rc);
   std::vector<double> truth;
   rig.robot->SetStepObserver([&](const sim::SimulatedRobot& r) {
@@ -81,6 +83,7 @@ std::vector<double> RunTruth(std::uint64_t seed) {
     truth.insert(truth.end(), q.data(), q.data() + q.size());
     truth.insert(truth.end(), v.data(), v.data() + v.size());
     truth.insert(truth.end(), r.applied_torque_Nm().data(), r.applied_torque_Nm().data() + 12);
+    truth.insert(truth.end(), r.reported_velocity_rad_s().data(), r.reported_velocity_rad_s().data() + 12);
   });
   rig.BringUp();
   for (int i = 0; i < 500; ++i) (void)rig.Cycle(Pd());
@@ -90,10 +93,134 @@ std::vector<double> RunTruth(std::uint64_t seed) {
 TEST(SimulatedRobot, LockStepIsDeterministicBitForBit) {
   const std::vector<double> a = RunTruth(7), b = RunTruth(7), c = RunTruth(8);
   ASSERT_EQ(a.size(), b.size());
-  ASSERT_GT(a.size(), 500u * 37);
+  ASSERT_GT(a.size(), 500u * 49);
   EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(double)), 0);
   EXPECT_TRUE(a.size() != c.size() || std::memcmp(a.data(), c.data(), a.size() * sizeof(double)) != 0)
       << "another seed gives other sensor noise, hence another run";
+}
+
+// The joint velocity the boards report: with `exact` the plant's own velocity, bit for bit (and
+// the noise draws are the same either way, so `exact` runs equal the runs made without the
+// boards' velocity); by default the boards' (sim/board_velocity.h) from the angles their encoders
+// saw. The HAL reads either to 1 count/s.
+TEST(SimulatedRobot, JointVelocityIsTheBoardsOrWithExactThePlantsOwn) {
+  for (sim::JointVelocity mode : {sim::JointVelocity::kExact, sim::JointVelocity::kBoard}) {
+    sim::SimulatedRobotConfig rc = Standing();
+    rc.profile.joint_velocity = mode;
+    rc.profile.encoder_noise_rad = 1e-4;
+    LoopbackRig rig(rc);
+    rig.BringUp();
+    for (int i = 0; i < 300; ++i) {
+      (void)rig.hal->Read(rig.now());
+      StandingPd(HilModel(), rig.hal->image());
+      (void)rig.hal->Write(rig.now());
+      // what the SYNC below is answered with: the sensors of the last step
+      const dynamics::VectorJ reported = rig.robot->reported_velocity_rad_s();
+      const dynamics::VectorJ expected =
+          mode == sim::JointVelocity::kExact
+              ? dynamics::VectorJ(rig.robot->plant().v().tail<dynamics::kNumJoints>())
+              : rig.robot->board_velocity().velocity_rad_s();
+      ASSERT_TRUE(reported == expected) << sim::ToString(mode) << " cycle " << i;
+      (void)rig.robot->PollLockStep();
+      (void)rig.hal->Read(rig.now());
+      (void)rig.hal->Write(rig.now());
+      (void)rig.robot->PollLockStep();
+      for (int j = 0; j < hal::kNumJoints; ++j) {
+        const auto& c = rig.cfg.joints[static_cast<std::size_t>(j)];
+        ASSERT_EQ(rig.hal->image().joints[static_cast<std::size_t>(j)].velocity_rad_s,
+                  hal::EncoderRateToRadPerSec(c, hal::RadPerSecToEncoderRate(c, reported(j))))
+            << sim::ToString(mode) << " cycle " << i << " joint " << j;
+      }
+    }
+    EXPECT_FALSE(rig.robot->fell());
+  }
+}
+
+// Held on the stand the plant rests exactly, so what the sensors add is the noise alone: its
+// sample standard deviation is the configured σ (encoders: with their quantisation, Δ²/12).
+TEST(SimulatedRobot, SensorNoiseHasTheConfiguredStandardDeviation) {
+  sim::SimulatedRobotConfig rc = Standing();
+  rc.seed = 5;
+  rc.profile.encoder_noise_rad = 2e-4;
+  rc.profile.gyro_noise_rad_s = 0.02;
+  rc.profile.accel_noise_m_s2 = 0.05;
+  LoopbackRig rig(rc);
+  rig.BringUp(DeviceState::kSafeOp);
+  const dynamics::VectorJ q_hold = rig.robot->plant().q().tail<dynamics::kNumJoints>();
+  const double count = 2 * M_PI / rig.cfg.joints[0].encoder.counts_per_rev;
+  double e1 = 0, e2 = 0, g1 = 0, g2 = 0, a1 = 0, a2 = 0;
+  long ne = 0, ni = 0;
+  const Eigen::Vector3d accel_rest(0, 0, -9.81);  // upside down at rest (ImuAtRest... below)
+  for (int i = 0; i < 3000; ++i) {
+    (void)rig.Cycle();
+    ASSERT_TRUE(rig.robot->holding());
+    const sim::ImuReading& r = rig.robot->imu_reported();
+    for (int k = 0; k < 3; ++k) {
+      g1 += r.gyro_rad_s(k);
+      g2 += r.gyro_rad_s(k) * r.gyro_rad_s(k);
+      const double a = r.specific_force_m_s2(k) - accel_rest(k);
+      a1 += a;
+      a2 += a * a;
+      ++ni;
+    }
+    if (i < 5) continue;  // the HAL's image: the answers of the SYNC before
+    for (int j = 0; j < hal::kNumJoints; ++j) {
+      const double e = rig.hal->image().joints[static_cast<std::size_t>(j)].position_rad - q_hold(j);
+      e1 += e;
+      e2 += e * e;
+      ++ne;
+    }
+  }
+  auto sd = [](double s1, double s2, long n) { return std::sqrt(s2 / n - (s1 / n) * (s1 / n)); };
+  EXPECT_NEAR(sd(e1, e2, ne), std::sqrt(2e-4 * 2e-4 + count * count / 12), 0.05 * 2e-4) << ne;
+  EXPECT_NEAR(sd(g1, g2, ni), 0.02, 0.05 * 0.02) << ni;
+  EXPECT_NEAR(sd(a1, a2, ni), 0.05, 0.05 * 0.05) << ni;
+  EXPECT_NEAR(g1 / ni, 0.0, 0.002);
+  EXPECT_NEAR(a1 / ni, 0.0, 0.005);
+}
+
+// The realistic profile has every sensor's noise, the ideal one none; both the boards' velocity.
+TEST(SimulatedRobot, TheRealisticProfileHasSensorNoiseTheIdealNone) {
+  const sim::PlantProfile r = sim::PlantProfile::Realistic(), i = sim::PlantProfile::Ideal();
+  EXPECT_GT(r.encoder_noise_rad, 0.0);
+  EXPECT_GT(r.load_cell_noise_Nm, 0.0);
+  EXPECT_GT(r.gyro_noise_rad_s, 0.0);
+  EXPECT_GT(r.accel_noise_m_s2, 0.0);
+  EXPECT_EQ(i.encoder_noise_rad + i.load_cell_noise_Nm + i.gyro_noise_rad_s + i.accel_noise_m_s2, 0.0);
+  EXPECT_EQ(r.joint_velocity, sim::JointVelocity::kBoard);
+  EXPECT_EQ(i.joint_velocity, sim::JointVelocity::kBoard);
+  EXPECT_EQ(i.velocity_cutoff_hz, sim::kBoardVelocityCutoffHz);
+  EXPECT_NE(r.Json().find("\"sensor_noise\": {\"encoder_rad\": 1.2e-05"), std::string::npos) << r.Json();
+  EXPECT_EQ(sim::JointVelocityByName("exact", "x"), sim::JointVelocity::kExact);
+  EXPECT_THROW((void)sim::JointVelocityByName("fast", "--joint-velocity"), std::invalid_argument);
+}
+
+// The emulator answers the buses one after the other within a Poll; a master that has all its
+// answers to SYNC k−1 may send cycle k on a bus the Poll has still to read. Those frames wait on
+// the wire until the step that SYNC k−1 called for is taken, so SYNC k is answered with the state
+// after it and its set-points act from the next step, however the processes interleave.
+TEST(SimulatedRobot, FramesArrivingWhileAStepIsDueWaitForTheStep) {
+  LoopbackRig rig;
+  const std::uint64_t steps = rig.robot->counters().steps;
+  const std::uint64_t s0 = rig.robot->counters().syncs[1];
+  const hal::CanFrame sync = hal::EncodeSync(1);
+  auto send = [&](std::size_t bus) {
+    std::size_t sent = 0;
+    ASSERT_EQ(rig.wires[bus]->endpoint(0).Send(std::span<const hal::CanFrame>(&sync, 1), &sent),
+              hal::CanStatus::kOk);
+    ASSERT_EQ(sent, 1u);
+  };
+  for (std::size_t b = 1; b < 4; ++b) send(b);  // SYNC k−1 on rf, lh, rh; lf's still on its way
+  EXPECT_EQ(rig.robot->PollLockStep(), 0);
+  send(0);  // lf's SYNC k−1, and already the master's SYNC k on rf
+  send(1);
+  EXPECT_EQ(rig.robot->PollLockStep(), 1);
+  EXPECT_EQ(rig.robot->counters().steps, steps + 1);
+  EXPECT_EQ(rig.robot->counters().syncs[1], s0 + 1) << "SYNC k was read before step k−1";
+  EXPECT_EQ(rig.wires[1]->endpoint(1).pending(), 1u);
+  EXPECT_EQ(rig.robot->PollLockStep(), 0);  // now read, after the step; the others' SYNC k awaited
+  EXPECT_EQ(rig.robot->counters().syncs[1], s0 + 2);
+  EXPECT_EQ(rig.robot->counters().steps, steps + 1);
 }
 
 TEST(SimulatedRobot, ActuatorStepResponseReaches63PercentAtTau) {
@@ -132,7 +259,7 @@ TEST(SimulatedRobot, ActuatorStepResponseReaches63PercentAtTau) {
 
 TEST(SimulatedRobot, LoadCellNoiseHasTheConfiguredStandardDeviation) {
   sim::SimulatedRobotConfig rc = Standing();
-  rc.load_cell_noise_Nm = 2.0;
+  rc.profile.load_cell_noise_Nm = 2.0;
   rc.seed = 42;
   LoopbackRig rig(rc);
   rig.BringUp();
@@ -284,8 +411,8 @@ TEST(SimulatedRobot, FaultSpecErrorsNameWhatWasExpectedAndFound) {
 TEST(SimulatedRobot, LockStepCycleDoesNotAllocate) {
   HYQ_REQUIRE_HEAP_HOOKS();
   sim::SimulatedRobotConfig rc = Standing();
-  rc.load_cell_noise_Nm = 1.0;
-  rc.gyro_noise_rad_s = 0.01;
+  rc.profile.load_cell_noise_Nm = 1.0;
+  rc.profile.gyro_noise_rad_s = 0.01;
   LoopbackRig rig(rc);
   rig.BringUp(DeviceState::kSafeOp);  // held on the stand: the hold path
   {

@@ -295,7 +295,7 @@ Options Parse(cli::CommandLine& cl, const std::vector<Scenario>& scenarios) {
   Options o;
   bool all = false;
   std::vector<std::string> wanted;
-  cli::PlantProfileFlags plant(/*imu=*/false);
+  cli::PlantProfileFlags plant(/*sensors=*/false);
   while (cl.Next()) {
     if (plant.Read(cl)) continue;
     if (cl.Flag("--list")) o.list = true;

@@ -80,12 +80,13 @@ std::string Help() {
       "usage: hyq-sim [--config FILE] [--urdf FILE] [--interface BUS=SPEC]...\n"
       "               [--mode lockstep|realtime] [--duration S] [--mu MU] [--foot-mu A,B,C,D]\n"
       "               [--ground-patch X0,X1,Y0,Y1,MU]...\n"
-      "               [--actuator-tau S] [--actuator-rate-limit NM_S] [--load-cell-noise NM]\n"
-      "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--no-hold]\n"
+      "               [--actuator-tau S] [--actuator-rate-limit NM_S] [--no-hold]\n"
       "               [--start-height M] [--seed N]\n"
       "               [--profile ideal|realistic] [--payload KG,X,Y,Z|off] [--link-errors SEED|off]\n"
       "               [--hydraulics on|off] [--joint-friction on|off] [--delay-cycles K]\n"
-      "               [--load-cell-bias NM] [--imu-bias G,A] [--write-model FILE]\n"
+      "               [--load-cell-bias NM] [--imu-bias G,A] [--bias-seed N] [--load-cell-noise NM]\n"
+      "               [--encoder-noise RAD] [--imu-noise GYRO[,ACCEL]] [--joint-velocity board|exact]\n"
+      "               [--velocity-cutoff HZ] [--write-model FILE]\n"
       "               [--fault T:KIND:TARGET[:ARG]]... [--truth FILE] [--truth-every N]\n"
       "               [--lcm-truth [URL]] [--lcm-truth-every N]\n"
       "               [--summary FILE] [--fall-height M] [--rt-priority P] [--cpu N|auto]\n"
@@ -108,19 +109,16 @@ std::string Help() {
       "                         MU; a foot above it has that μ (repeatable; the first listed wins)\n"
       "  --actuator-tau S       actuator time constant (default 0.005; 0 = ideal)\n"
       "  --actuator-rate-limit R  torque rate limit, N·m/s (default 0 = none)\n"
-      "  --load-cell-noise NM   σ of the measured joint torque, N·m (default 0)\n"
-      "  --encoder-noise RAD    σ added to the joint angle before quantisation (default 0)\n"
-      "  --imu-noise G[,A]      σ of the gyro (rad/s) and accelerometer (m/s²) (default 0,0)\n"
       "  --no-hold              do not hold the robot on its stand until all outputs are enabled\n"
       "  --start-height M       the posture it is held in: base height with the feet on the ground\n"
       "                         (default 0.40: HyQ's resting crouch, which the daemon stands up\n"
       "                         from; 0: the standing posture)\n"
       "  --seed N               sensor-noise seed (default 1)\n"
-      "  --profile P            the plant: ideal (default: the model, --actuator-tau lag) or\n"
-      "                         realistic (model error, HyQ's hydraulics with the boards' torque\n"
-      "                         loop, joint friction, 1-cycle delay, sensor biases; levels and\n"
-      "                         sources in docs/simulation.md). The flags below change one factor\n"
-      "                         of it, whatever their order:\n"
+      "  --profile P            the plant: ideal (default: the model, --actuator-tau lag, no sensor\n"
+      "                         noise) or realistic (model error, HyQ's hydraulics with the boards'\n"
+      "                         torque loop, joint friction, 1-cycle delay, sensor biases and noise;\n"
+      "                         levels and sources in docs/simulation.md). The flags below change\n"
+      "                         one factor of it, whatever their order:\n"
       "  --payload KG,X,Y,Z|off a point mass on the trunk (kg; position in the trunk frame, m)\n"
       "  --link-errors SEED|off per-link mass ±5 %, CoM ±1 cm, inertia ±10 % drawn from SEED\n"
       "  --hydraulics on|off    HyQ's hydraulic actuators and torque loop instead of the lag\n"
@@ -130,13 +128,24 @@ std::string Help() {
       "  --imu-bias G,A         gyro (rad/s) and accelerometer (m/s²) biases per axis, uniform in\n"
       "                         ±G, ±A\n"
       "  --bias-seed N          seed of the sensor biases (default 1)\n"
+      "  --load-cell-noise NM   σ of the measured joint torque, N·m (ideal 0, realistic 0.1)\n"
+      "  --encoder-noise RAD    σ added to the joint angle before quantisation (ideal 0,\n"
+      "                         realistic 1.2e-5)\n"
+      "  --imu-noise G[,A]      σ of the gyro (rad/s) and accelerometer (m/s²) per 1 ms sample\n"
+      "                         (ideal 0,0; realistic 0.0166,0.0248)\n"
+      "  --joint-velocity V     board (default, every profile): the boards' velocity, the\n"
+      "                         difference of successive encoder counts over the step through a\n"
+      "                         first-order low-pass; exact: the plant's own velocity (what\n"
+      "                         runs without the boards' velocity had)\n"
+      "  --velocity-cutoff HZ   the boards' low-pass cut-off (default 250; 0: the bare difference)\n"
       "  --write-model FILE     write the plant's MuJoCo model (MJCF, model error included) and exit\n"
       "  --fault T:KIND:TARGET[:ARG]  at simulated time T: silent|corrupt|drop|nan|bus-off|emcy;\n"
       "                         TARGET a device (lf_kfe, imu) or for bus-off a bus (rh); ARG\n"
       "                         frames (corrupt, drop), seconds (silent, bus-off), code (emcy).\n"
       "                         e.g. 2.5:silent:lf_kfe 3.0:corrupt:rf_hfe:20 4.0:bus-off:rh\n"
       "  --truth FILE           ground-truth CSV (t, base pose, q, qd, applied tau, contacts,\n"
-      "                         each foot's friction)\n"
+      "                         each foot's friction, the base's linear (W) and angular (B)\n"
+      "                         velocity)\n"
       "  --truth-every N        one truth row every N steps (default 10)\n"
       "  --lcm-truth [URL]      publish the truth as lcmt_hyq_sim_truth on HYQ_SIM_TRUTH (default\n"
       "                         URL ") +
@@ -229,7 +238,7 @@ std::string Fault(hyq::cli::CommandLine& cl) {
 Options Parse(hyq::cli::CommandLine& cl) {
   using hyq::cli::Split;
   Options o;
-  hyq::cli::PlantProfileFlags plant(/*imu=*/true);
+  hyq::cli::PlantProfileFlags plant(/*sensors=*/true);
   while (cl.Next()) {
     if (plant.Read(cl)) continue;
     if (cl.Flag("--config")) o.config = cl.Value();
@@ -254,16 +263,7 @@ Options Parse(hyq::cli::CommandLine& cl) {
     else if (cl.Flag("--actuator-tau")) o.robot.actuator_tau_s = cl.Number(0.0, kNoMax, "seconds >= 0");
     else if (cl.Flag("--actuator-rate-limit"))
       o.robot.actuator_rate_limit_Nm_s = cl.Number(0.0, kNoMax, "N·m/s >= 0");
-    else if (cl.Flag("--load-cell-noise")) o.robot.load_cell_noise_Nm = cl.Number(0.0, kNoMax, "N·m >= 0");
-    else if (cl.Flag("--encoder-noise")) o.robot.encoder_noise_rad = cl.Number(0.0, kNoMax, "rad >= 0");
-    else if (cl.Flag("--imu-noise")) {
-      const std::string v = cl.Value();
-      const std::vector<std::string> p = Split(v, ',');
-      if (p.size() > 2) cl.BadValue("GYRO[,ACCEL] (rad/s, m/s²)", v);
-      o.robot.gyro_noise_rad_s = cl.NumberOf("--imu-noise GYRO", p[0], 0.0, kNoMax, "rad/s >= 0");
-      if (p.size() == 2)
-        o.robot.accel_noise_m_s2 = cl.NumberOf("--imu-noise ACCEL", p[1], 0.0, kNoMax, "m/s² >= 0");
-    } else if (cl.Flag("--no-hold")) o.robot.hold = false;
+    else if (cl.Flag("--no-hold")) o.robot.hold = false;
     else if (cl.Flag("--start-height")) {
       const std::string expected = "0 or a base height in [0.34, 0.62] m";
       const std::string v = cl.Value();
@@ -469,6 +469,8 @@ class StepRecorder {
         truth_ << ',' << leg << "_fx," << leg << "_fy," << leg << "_fz," << leg << "_touching";
       truth_ << ",body_touching,holding";
       for (const char* leg : {"lf", "rf", "lh", "rh"}) truth_ << ',' << leg << "_mu";
+      // the base's velocity: linear in W, angular in B (MuJoCo's free joint, HYQ_SIM_TRUTH's)
+      truth_ << ",vx_W,vy_W,vz_W,wx_B,wy_B,wz_B";
       truth_ << '\n';
     }
     if (!o.lcm_truth_url.empty()) truth_lcm_ = std::make_unique<TruthPublisher>(o.lcm_truth_url);
@@ -539,6 +541,7 @@ class StepRecorder {
              << (c.touching ? 1 : 0);
     truth_ << ',' << (r.plant().BodyTouchesGround() ? 1 : 0) << ',' << (r.holding() ? 1 : 0);
     for (int f = 0; f < 4; ++f) truth_ << ',' << r.plant().foot_friction(f);
+    for (int i = 0; i < 6; ++i) truth_ << ',' << v(i);
     truth_ << '\n';
   }
 

@@ -69,7 +69,7 @@ bool PlantProfileFlags::Read(CommandLine& cl) {
   } else if (cl.Flag("--load-cell-bias")) {
     const double b = cl.Number(0.0, kNoMax, "N·m >= 0");
     factors_.push_back([b](PlantProfile* p) { p->load_cell_bias_Nm = b; });
-  } else if (imu_ && cl.Flag("--imu-bias")) {
+  } else if (sensors_ && cl.Flag("--imu-bias")) {
     const std::string v = cl.Value();
     const std::vector<std::string> f = Split(v, ',');
     if (f.size() != 2) cl.BadValue("G,A (rad/s, m/s², >= 0)", v);
@@ -79,6 +79,36 @@ bool PlantProfileFlags::Read(CommandLine& cl) {
       p->gyro_bias_rad_s = g;
       p->accel_bias_m_s2 = a;
     });
+  } else if (sensors_ && cl.Flag("--encoder-noise")) {
+    const double n = cl.Number(0.0, kNoMax, "rad >= 0");
+    factors_.push_back([n](PlantProfile* p) { p->encoder_noise_rad = n; });
+  } else if (sensors_ && cl.Flag("--load-cell-noise")) {
+    const double n = cl.Number(0.0, kNoMax, "N·m >= 0");
+    factors_.push_back([n](PlantProfile* p) { p->load_cell_noise_Nm = n; });
+  } else if (sensors_ && cl.Flag("--imu-noise")) {
+    const std::string v = cl.Value();
+    const std::vector<std::string> f = Split(v, ',');
+    if (f.size() > 2) cl.BadValue("GYRO[,ACCEL] (rad/s, m/s²)", v);
+    const double g = cl.NumberOf("--imu-noise GYRO", f[0], 0.0, kNoMax, "rad/s >= 0");
+    const std::optional<double> a =
+        f.size() == 2 ? std::optional<double>(cl.NumberOf("--imu-noise ACCEL", f[1], 0.0, kNoMax, "m/s² >= 0"))
+                      : std::nullopt;
+    factors_.push_back([g, a](PlantProfile* p) {
+      p->gyro_noise_rad_s = g;
+      if (a) p->accel_noise_m_s2 = *a;
+    });
+  } else if (sensors_ && cl.Flag("--joint-velocity")) {
+    const std::string v = cl.Value();
+    sim::JointVelocity jv = sim::JointVelocity::kBoard;
+    try {
+      jv = sim::JointVelocityByName(v, "--joint-velocity");
+    } catch (const std::invalid_argument& e) {
+      cl.Fail(e.what());
+    }
+    factors_.push_back([jv](PlantProfile* p) { p->joint_velocity = jv; });
+  } else if (sensors_ && cl.Flag("--velocity-cutoff")) {
+    const double hz = cl.Number(0.0, 1e6, "Hz >= 0 (0: no filter)");
+    factors_.push_back([hz](PlantProfile* p) { p->velocity_cutoff_hz = hz; });
   } else if (cl.Flag("--bias-seed")) {
     const auto seed = static_cast<std::uint64_t>(cl.Integer(0, kMaxSeed, "an unsigned integer"));
     factors_.push_back([seed](PlantProfile* p) { p->bias_seed = seed; });
