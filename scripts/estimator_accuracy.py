@@ -334,7 +334,7 @@ def figures(d, mask):
     return out
 
 
-def analyse(run_dir, lcmtypes_dir, window):
+def analyse(run_dir, lcmtypes_dir, window, bias_after_s=5.0):
     for f in ("telemetry.lcmlog", "truth.csv"):
         if not os.path.isfile(os.path.join(run_dir, f)):
             why = (" (hil.sh records it unless --no-logger)" if f == "telemetry.lcmlog" else
@@ -391,8 +391,34 @@ def analyse(run_dir, lcmtypes_dir, window):
         "std": np.array([m.velocity_std_m_s for m in base]).T if has_std else None,
         "phase": np.array([p or "" for p in phase]),
     }
+    # the gyro bias: the estimate once the robot has stood still for bias_after_s (cumulative),
+    # against the bias hyq-sim drew (sim.json's imu_bias_B), relative to its size
+    bias = None
+    sim_json = os.path.join(run_dir, "sim.json")
+    true_bias = None
+    if os.path.isfile(sim_json):
+        with open(sim_json) as f:
+            true_bias = json.load(f).get("imu_bias_B", {}).get("gyro_rad_s")
+    if true_bias is not None and hasattr(base[0], "gyro_bias_rad_s"):
+        still_s, at = 0.0, None
+        for i in range(1, len(base)):
+            if base[i].still:
+                still_s += t[i] - t[i - 1]
+            if still_s >= bias_after_s:
+                at = i
+                break
+        b = np.array(true_bias)
+        if at is not None and np.linalg.norm(b) > 0:
+            est = np.array(base[at].gyro_bias_rad_s)
+            bias = {"true_rad_s": b.tolist(), "estimate_rad_s": est.tolist(), "at_s": float(t[at]),
+                    "still_s": bias_after_s,
+                    "relative_error": float(np.linalg.norm(est - b) / np.linalg.norm(b))}
+        else:
+            bias = {"true_rad_s": b.tolist(), "estimate_rad_s": None, "still_s": bias_after_s,
+                    "relative_error": None}
     result = {
         "run_dir": os.path.abspath(run_dir),
+        "gyro_bias": bias,
         "alignment": {
             "rule": "t_sim = utime - h",
             "period_s": h,
@@ -443,6 +469,15 @@ def report(r):
         if "within_2sigma" in f:
             w = f["within_2sigma"]
             lines.append(f"  {'':9s} within ±2σ: " + ", ".join(f"{ax} {100 * w[ax]:.0f} %" for ax in AXES))
+    b = r.get("gyro_bias")
+    if b:
+        if b["relative_error"] is None:
+            lines.append(f"  gyro bias: the robot never stood still for {b['still_s']:g} s")
+        else:
+            lines.append("  gyro bias after {:g} s standing still (t {:.2f} s): estimate [{}] mrad/s, true [{}] "
+                         "mrad/s, error {:.1f} % of the bias".format(
+                             b["still_s"], b["at_s"], ", ".join(f"{1e3 * x:.3f}" for x in b["estimate_rad_s"]),
+                             ", ".join(f"{1e3 * x:.3f}" for x in b["true_rad_s"]), 100 * b["relative_error"]))
     return "\n".join(lines)
 
 
@@ -484,6 +519,14 @@ def violations(r, a):
     check("trot", "rms", a.max_trot_vel_rms, "--max-trot-vel-rms", "RMS error")
     check("trot", "max", a.max_trot_vel_max, "--max-trot-vel-max", "largest error")
     check("rest", "rms", a.max_rest_vel_rms, "--max-rest-vel-rms", "RMS error")
+    if a.max_gyro_bias_error is not None:
+        b = r.get("gyro_bias")
+        if not b or b["relative_error"] is None:
+            out.append("--max-gyro-bias-error: no drawn bias in sim.json or no still period of "
+                       f"{a.bias_after:g} s in the run")
+        elif 100 * b["relative_error"] > a.max_gyro_bias_error:
+            out.append(f"gyro bias error {100 * b['relative_error']:.1f} % > {a.max_gyro_bias_error:g} "
+                       "(--max-gyro-bias-error)")
     if a.max_yaw_drift is not None:
         f = r["phases"]["trot"]
         if not f["samples"]:
@@ -566,11 +609,16 @@ def main(argv=None):
     ap.add_argument("--max-trot-vel-max", type=float, metavar="CM_S")
     ap.add_argument("--max-rest-vel-rms", type=float, metavar="CM_S")
     ap.add_argument("--max-yaw-drift", type=float, metavar="MRAD")
+    ap.add_argument("--bias-after", type=float, default=5.0, metavar="S",
+                    help="compare the gyro bias once the estimator has found the robot still this long "
+                         "(default 5)")
+    ap.add_argument("--max-gyro-bias-error", type=float, metavar="PCT",
+                    help="bound on |estimated - drawn gyro bias| / |drawn| (sim.json's imu_bias_B)")
     a = ap.parse_args(argv)
     try:
         if not os.path.isdir(a.run_dir):
             raise Usage(f"{a.run_dir}: not a directory")
-        r, d = analyse(a.run_dir, a.lcmtypes, a.window)
+        r, d = analyse(a.run_dir, a.lcmtypes, a.window, a.bias_after)
         if a.json:
             with open(a.json, "w") as f:
                 json.dump(r, f, indent=2)

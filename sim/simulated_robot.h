@@ -180,6 +180,9 @@ class SimulatedRobot {
   /// The base's downward speed at the first ground contact (fall or sit-down), m/s.
   double contact_speed_m_s() const noexcept { return contact_speed_m_s_; }
   double min_base_height_m() const noexcept { return min_base_height_m_; }
+  /// The IMU's biases (the configured plus the profile's drawn ones), in the trunk's frame.
+  Eigen::Vector3d gyro_bias_B() const noexcept { return R_BF_ * gyro_bias_; }
+  Eigen::Vector3d accel_bias_B() const noexcept { return R_BF_ * accel_bias_; }
   const dynamics::VectorJ& applied_torque_Nm() const noexcept { return tau_applied_; }
   const dynamics::VectorJ& measured_torque_Nm() const noexcept { return tau_measured_; }
   const ImuReading& imu_reported() const noexcept { return imu_reported_; }

@@ -39,6 +39,8 @@ void StateEstimator::Reset() noexcept {
   still_s_ = 0.0;
   all_rejected_s_ = 0.0;
   have_previous_gyro_ = false;
+  qd_lowpass_.setZero();
+  w_lowpass_.setZero();
   for (auto& c : contacts_) c = ContactDetector{};
   feet_.fill(FootEstimate{});
   slip_evidence_.fill(false);
@@ -110,8 +112,13 @@ EstimatorStatus StateEstimator::Update(const hal::ProcessImage& image,
   CorrectWithFeet(qdj, gyro_B);
 
   // standing still: zero velocity and zero rate, the biases estimated
-  const bool joints_still = qdj.cwiseAbs().maxCoeff() < settings_.still_joint_speed_rad_s;
-  const bool not_turning = (gyro_B - ekf_.gyro_bias()).norm() < settings_.still_gyro_rad_s;
+  // (the joint rates and the gyro low-passed first: a still robot's sensor noise alone may
+  // cross the thresholds)
+  const double a = settings_.still_filter_s > dt_ ? dt_ / settings_.still_filter_s : 1.0;
+  qd_lowpass_ += a * (qdj - qd_lowpass_);
+  w_lowpass_ += a * (gyro_B - ekf_.gyro_bias() - w_lowpass_);
+  const bool joints_still = qd_lowpass_.cwiseAbs().maxCoeff() < settings_.still_joint_speed_rad_s;
+  const bool not_turning = w_lowpass_.norm() < settings_.still_gyro_rad_s;
   still_s_ = joints_still && not_turning ? still_s_ + dt_ : 0.0;
   if (still()) {
     H3 Hv = H3::Zero();

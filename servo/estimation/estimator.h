@@ -17,7 +17,8 @@
 //    feet, is then wrong) and the feet correct it again;
 //  - height: each accepted foot's contact point is on the ground (z = ground_height_m, flat);
 //  - standing still (every joint slower than still_joint_speed, the bias-corrected gyro below
-//    still_gyro, for still_time_s): the base's velocity and angular rate are zero, which makes
+//    still_gyro, both low-passed against sensor noise, for still_time_s): the base's velocity
+//    and angular rate are zero, which makes
 //    the gyro bias observable (yaw's included); the biases are estimated only then and held
 //    while the robot moves, where impacts and slips would pull them;
 //  - out: q, v (docs/conventions.md: v_W, ω_B = gyro − bias), the standard deviations, per foot
@@ -55,7 +56,8 @@ struct EstimatorConfig {
   double max_slip_speed_m_s = 0.5;       // ... or moving faster: a foot in the air, whatever its load says
   double still_joint_speed_rad_s = 0.05; // standing still: every joint slower than this ...
   double still_gyro_rad_s = 0.03;        // ... the corrected gyro below this ...
-  double still_time_s = 0.2;             // ... for this long
+  double still_time_s = 0.2;             // ... for this long (both low-passed over still_filter_s)
+  double still_filter_s = 0.05;          // time constant of the stillness test's low-pass (sensor noise)
   double still_velocity_noise_m_s = 0.005;  // σ of "the base is still" (v = 0)
   double still_rate_noise_rad_s = 0.002;    // σ of "the base does not turn" (ω = 0)
   double initial_velocity_m_s = 0.1;     // σ at start
@@ -105,6 +107,8 @@ struct EstimatorConfig {
     a->Visit(hal::Key("still_gyro_rad_s", &still_gyro_rad_s).In(0.0, 10.0).Unit("rad/s")
                  .Doc("... the bias-corrected gyro below this ..."));
     a->Visit(hal::Key("still_time_s", &still_time_s).In(0.0, 60.0).Unit("s").Doc("... for this long"));
+    a->Visit(hal::Key("still_filter_s", &still_filter_s).In(0.0, 10.0).Unit("s")
+                 .Doc("the joint rates and the gyro are low-passed with this time constant before the stillness test"));
     a->Visit(hal::Key("still_velocity_noise_m_s", &still_velocity_noise_m_s).In(1e-6, 1.0).Unit("m/s")
                  .Doc("σ of \"the base is still\""));
     a->Visit(hal::Key("still_rate_noise_rad_s", &still_rate_noise_rad_s).In(1e-7, 1.0).Unit("rad/s")
@@ -201,6 +205,8 @@ class StateEstimator {
   double still_s_ = 0.0;
   double all_rejected_s_ = 0.0;
   Eigen::Vector3d previous_gyro_B_ = Eigen::Vector3d::Zero();
+  VectorJ qd_lowpass_ = VectorJ::Zero();        // for the stillness test
+  Eigen::Vector3d w_lowpass_ = Eigen::Vector3d::Zero();
   bool have_previous_gyro_ = false;
   std::array<ContactDetector, kNumFeet> contacts_;
   std::array<FootEstimate, kNumFeet> feet_{};

@@ -665,6 +665,8 @@ Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
   Json s = {
       {"mode", o.lockstep ? "lockstep" : "realtime"},
       {"profile", Json::parse(o.robot.profile.Json())},
+      {"imu_bias_B", {{"gyro_rad_s", {robot.gyro_bias_B().x(), robot.gyro_bias_B().y(), robot.gyro_bias_B().z()}},
+                      {"accel_m_s2", {robot.accel_bias_B().x(), robot.accel_bias_B().y(), robot.accel_bias_B().z()}}}},
       {"simulated_time_s", robot.time_s()},
       {"steps", c.steps},
       {"held_steps", c.held_steps},
