@@ -201,20 +201,27 @@ void StateEstimator::CorrectWithFeet(const VectorJ& qdj, const Eigen::Vector3d& 
     accept[l] = f.mahalanobis_sq <= settings_.gate_chi2;
     accepted += accept[l] ? 1 : 0;
   }
-  // the prediction, not the feet, is wrong when every foot disagrees for long: the gate stays
-  // open until a foot passes it again
+  // the prediction, not the feet, is wrong when every foot disagrees for long: the gate then
+  // lets the one foot nearest the prediction through, every cycle until a foot passes it again
+  // (not every foot: those still sliding after a landing would drag the estimate with them)
   if (accepted > 0 || candidates == 0) all_rejected_s_ = 0.0;
   else all_rejected_s_ += dt_;
-  const bool gate_open = all_rejected_s_ > settings_.max_gated_s;
+  if (all_rejected_s_ > settings_.max_gated_s) {
+    std::size_t best = kNumFeet;
+    for (std::size_t l = 0; l < kNumFeet; ++l)
+      if (feet_[l].contact_probability >= r_min &&
+          (best == kNumFeet || feet_[l].mahalanobis_sq < feet_[best].mahalanobis_sq))
+        best = l;
+    if (best < kNumFeet) accept[best] = true;
+  }
   for (std::size_t l = 0; l < kNumFeet; ++l) {
     FootEstimate& f = feet_[l];
     if (f.contact_probability < r_min) continue;
-    if (!accept[l] && !gate_open) {
+    if (!accept[l]) {
       f.rejected = true;
       ++f.rejections;
       continue;
     }
-    accept[l] = true;
     H3 H;
     Eigen::Vector3d z;
     foot_measurement(l, &H, &z);  // after the feet corrected before it

@@ -13,8 +13,8 @@
 //    a foot whose innovation's squared Mahalanobis distance exceeds the gate is rejected that
 //    cycle (slipping, bouncing) and counted. Gating uses the prediction, before any foot of the
 //    cycle corrects it, so that a slipping foot cannot move the gate of the others; if every
-//    foot in contact has been rejected for max_gated_s the gate opens (the prediction, not the
-//    feet, is then wrong) and the feet correct it again;
+//    foot in contact has been rejected for max_gated_s the prediction, not the feet, is wrong:
+//    the foot nearest it passes each cycle until feet pass the gate again;
 //  - height: each accepted foot's contact point is on the ground (z = ground_height_m, flat);
 //  - standing still (every joint slower than still_joint_speed, the bias-corrected gyro below
 //    still_gyro, both low-passed against sensor noise, for still_time_s): the base's velocity
@@ -50,7 +50,7 @@ struct EstimatorConfig {
   double height_noise_m = 0.01;          // σ of a stance foot's height above the ground
   double ground_height_m = 0.0;          // the (flat) ground's height in W
   double gate_chi2 = 16.27;              // χ²₃ at 0.999: a foot further from the prediction is rejected
-  double max_gated_s = 0.05;             // every foot in contact rejected this long: gate opens
+  double max_gated_s = 0.2;              // every foot in contact rejected this long: the nearest passes
   double min_contact_probability = 0.5;  // a foot less likely in contact is not used
   double lift_speed_m_s = 0.05;          // a contact point rising faster is lifting, not slipping
   double max_slip_speed_m_s = 0.5;       // ... or moving faster: a foot in the air, whatever its load says
@@ -95,7 +95,7 @@ struct EstimatorConfig {
     a->Visit(hal::Key("gate_chi2", &gate_chi2).In(0.1, 1e6)
                  .Doc("a foot's squared Mahalanobis distance above this: rejected (χ²₃ 0.999 = 16.27)"));
     a->Visit(hal::Key("max_gated_s", &max_gated_s).In(0.0, 10.0).Unit("s")
-                 .Doc("every foot in contact rejected this long: the gate opens"));
+                 .Doc("every foot in contact rejected this long: the one nearest the prediction passes"));
     a->Visit(hal::Key("min_contact_probability", &min_contact_probability).In(0.0, 1.0)
                  .Doc("a foot less likely in contact corrects nothing"));
     a->Visit(hal::Key("lift_speed_m_s", &lift_speed_m_s).In(0.0, 10.0).Unit("m/s")
