@@ -246,10 +246,11 @@ void StateEstimator::CorrectWithFeet(const VectorJ& qdj, const Eigen::Vector3d& 
     bool anchored = false;
     for (std::size_t m = 0; m < kNumFeet; ++m)
       anchored = anchored || (m != l && feet_[m].used && !feet_[m].settling);
-    // lifting off: the contact point rises, or moves faster than a foot slides (at lift-off
-    // the swing's torques still read as load on a massless leg)
+    // lifting off or bouncing: the contact point rises or falls, or moves faster than a foot
+    // slides (at lift-off the swing's torques still read as load on a massless leg, and a
+    // bouncing foot's force estimate misses the leg's acceleration)
     const Eigen::Vector3d& vc = feet_[l].contact_velocity_W;
-    const bool lifting = vc.z() > settings_.lift_speed_m_s || vc.norm() > settings_.max_slip_speed_m_s;
+    const bool lifting = std::abs(vc.z()) > settings_.lift_speed_m_s || vc.norm() > settings_.max_slip_speed_m_s;
     slip_evidence_[l] = anchored && feet_[l].contact_probability >= r_min && !feet_[l].settling &&
                         !lifting;
   }

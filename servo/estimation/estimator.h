@@ -52,7 +52,7 @@ struct EstimatorConfig {
   double gate_chi2 = 16.27;              // χ²₃ at 0.999: a foot further from the prediction is rejected
   double max_gated_s = 0.2;              // every foot in contact rejected this long: the nearest passes
   double min_contact_probability = 0.5;  // a foot less likely in contact is not used
-  double lift_speed_m_s = 0.05;          // a contact point rising faster is lifting, not slipping
+  double lift_speed_m_s = 0.05;          // a contact point rising or falling faster lifts or bounces
   double max_slip_speed_m_s = 0.5;       // ... or moving faster: a foot in the air, whatever its load says
   double still_joint_speed_rad_s = 0.05; // standing still: every joint slower than this ...
   double still_gyro_rad_s = 0.03;        // ... the corrected gyro below this ...
@@ -99,7 +99,7 @@ struct EstimatorConfig {
     a->Visit(hal::Key("min_contact_probability", &min_contact_probability).In(0.0, 1.0)
                  .Doc("a foot less likely in contact corrects nothing"));
     a->Visit(hal::Key("lift_speed_m_s", &lift_speed_m_s).In(0.0, 10.0).Unit("m/s")
-                 .Doc("a contact point moving up faster is lifting off: its motion is no slip evidence"));
+                 .Doc("a contact point moving up or down faster lifts off or bounces: its motion is no slip evidence"));
     a->Visit(hal::Key("max_slip_speed_m_s", &max_slip_speed_m_s).In(0.0, 100.0).Unit("m/s")
                  .Doc("a contact point moving faster is in the air (a swing's torques read as load): no slip evidence"));
     a->Visit(hal::Key("still_joint_speed_rad_s", &still_joint_speed_rad_s).In(0.0, 10.0).Unit("rad/s")
@@ -175,9 +175,9 @@ class StateEstimator {
   const std::array<double, kNumFeet>& foot_load_N() const noexcept { return load_; }
   const std::array<FootEstimate, kNumFeet>& feet() const noexcept { return feet_; }
   /// Per foot: the base velocity against which this foot's slip is measured is anchored by
-  /// another foot the filter accepted, and the foot is in contact, settled and not lifting off
-  /// (its contact point neither rises nor moves faster than a foot slides): its slip velocity
-  /// is evidence (the friction estimator's mask).
+  /// another foot the filter accepted, and the foot is in contact, settled and neither lifting
+  /// off nor bouncing (its contact point neither rises nor falls, nor moves faster than a foot
+  /// slides): its slip velocity is evidence (the friction estimator's mask).
   const std::array<bool, kNumFeet>& slip_evidence() const noexcept { return slip_evidence_; }
   Eigen::Matrix3d R_WB() const noexcept { return ekf_.R_WB(); }
   /// Standard deviations: position and velocity (W), orientation about W's axes (roll, pitch,
