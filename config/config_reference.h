@@ -13,6 +13,7 @@
 #include <string>
 #include <tuple>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "config/yaml_reader.h"
@@ -214,6 +215,19 @@ std::string KeyTable(T defaults = T{}) {
   detail::MarkdownArchive archive("", &rows);
   defaults.Serialize(&archive);
   return detail::MarkdownTable(rows);
+}
+
+/// Every key of `config` with its present value as the reference table writes it ("key" →
+/// "value"), e.g. to compare two loaded files key by key.
+template <class T>
+std::vector<std::pair<std::string, std::string>> KeyValues(T config) {
+  std::vector<detail::KeyRow> rows;
+  detail::MarkdownArchive archive("", &rows);
+  config.Serialize(&archive);
+  std::vector<std::pair<std::string, std::string>> out;
+  out.reserve(rows.size());
+  for (auto& r : rows) out.emplace_back(std::move(r.key), std::move(r.default_value));
+  return out;
 }
 
 /// The servo file's table and the HAL file's, with their headings: the generated part of

@@ -35,7 +35,7 @@ struct CommandChannelConfig {
   /// The interface the command group must be joined on (the routing table decides it for liblcm);
   /// a different one is a start-up error. Empty: not checked.
   std::string interface = "lo";
-  double max_rate_hz = 10.0;             // accepted commands at most this often; faster ones are refused
+  double max_rate_hz = 20.0;             // accepted commands at most this often; faster ones are refused
   double mu_min = 0.0, mu_max = 2.0;     // accepted friction range (inclusive)
   double gain_scale_min = 0.1, gain_scale_max = 2.0;  // accepted kp/kd multipliers (inclusive)
   /// accepted |vx| m/s, |vy| m/s, |wz| rad/s of a set-velocity command (inclusive)

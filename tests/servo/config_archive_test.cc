@@ -1,8 +1,10 @@
 // Each configuration key is written once, in its struct's Serialize: a key added there is read
 // from YAML with its bound, known to the unknown-key check and listed in the docs table, with no
-// other change; and docs/configuration.md's table is the one the structs give.
+// other change; docs/configuration.md's table is the one the structs give; the simulator's file
+// ships the robot's controller.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -100,6 +102,35 @@ TEST(ConfigArchive, DocsTableIsTheGeneratedOne) {
   EXPECT_EQ(text.substr(from, end - from), config::ConfigReference())
       << "docs/configuration.md's table is not the structs' one: run\n"
          "  build/ci/tools/hyq-config-reference/hyq-config-reference --update docs/configuration.md";
+}
+
+// What is tested is what runs on the robot: the simulator's configuration ships the robot's
+// controller, gains, gait, estimator, safety and timing settings, and differs only in what is the
+// simulator's (its buses and clock, the ground it simulates, enabling itself, the motion its
+// demonstration runs where the robot's file starts standing, where the loop runs and how often
+// the telemetry is sampled for the logger).
+TEST(ConfigArchive, TheSimulatorShipsTheRobotsController) {
+  const auto dir = testing::SourceDir() / "config";
+  const auto robot = config::KeyValues(config::LoadServoConfig(dir / "hyq_servo.yaml"));
+  const auto sim = config::KeyValues(config::LoadServoConfig(dir / "hyq_servo_sim.yaml"));
+  const std::vector<std::string> simulator_only = {
+      "loop.clock", "buses", "contact.mu", "operation.auto_enable", "reference.kind", "realtime.",
+      "telemetry."};
+  ASSERT_EQ(robot.size(), sim.size());
+  int differ = 0;
+  for (std::size_t i = 0; i < robot.size(); ++i) {
+    ASSERT_EQ(robot[i].first, sim[i].first);
+    const std::string& key = robot[i].first;
+    const bool allowed = std::any_of(simulator_only.begin(), simulator_only.end(),
+                                     [&](const std::string& p) { return key.rfind(p, 0) == 0; });
+    if (allowed || robot[i].second == sim[i].second) continue;
+    ++differ;
+    ADD_FAILURE() << key << ": config/hyq_servo.yaml has '" << robot[i].second
+                  << "', config/hyq_servo_sim.yaml '" << sim[i].second << "'";
+  }
+  EXPECT_EQ(differ, 0) << "the simulator's file may differ from the robot's only in "
+                          "loop.clock, buses, contact.mu, operation.auto_enable, reference.kind, "
+                          "realtime.* and telemetry.*";
 }
 
 }  // namespace

@@ -211,7 +211,7 @@ telemetry:
   EXPECT_DOUBLE_EQ(k.pid_swing_gain_scale, 0.6);
   EXPECT_DOUBLE_EQ(k.pdg_swing_gain_scale, 0.7);
   const servo::ControllerConfig robot_cc = config::LoadServoConfig(kConfigDir / "hyq_servo.yaml").controller;
-  EXPECT_DOUBLE_EQ(robot_cc.swing_gain_scale, 1.0);
+  EXPECT_DOUBLE_EQ(robot_cc.swing_gain_scale, 0.3);  // the IDs' swing legs, as simulated
   EXPECT_DOUBLE_EQ(robot_cc.pid_swing_gain_scale, 1.0);
   EXPECT_DOUBLE_EQ(robot_cc.pdg_swing_gain_scale, 1.0);
   // the simulation's: the IDs' swing legs at 0.3, the baselines' untouched
