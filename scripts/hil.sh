@@ -189,12 +189,41 @@ if sim:
                  f"{sim.get('contact_speed_m_s', 0):.2f} m/s)")
     print(f"  robot            {'FELL or sat down at %.2f s' % contact_at if fell else 'did not fall while active'}{after}; "
           f"{sim.get('simulated_time_s', 0):.2f} s simulated at {sim.get('speed', 0):.1f}x real time")
+# the trunk's pose while the reference runs (ACTIVE without its stand-up and sit-down), from the
+# truth: the reference keeps the trunk level at a fixed height, so roll and pitch RMS and the
+# height's s.d. are its errors, which the joint error above does not show directly
+truth = os.path.join(out, "truth.csv")
+t0 = sim.get("released_at_s", 0.0) + s.get("stand_up_s", 0.0)
+t_ref_end = t_stop - s.get("sit_down_s", 0.0)
+trunk = None
+if os.path.exists(truth) and t_ref_end > t0:
+    import csv, math
+    roll2 = pitch2 = 0.0
+    zs = []
+    with open(truth) as f:
+        for row in csv.DictReader(f):
+            t = float(row["t"])
+            if t < t0 or t > t_ref_end:
+                continue
+            w, x, y, z = (float(row[k]) for k in ("qw", "qx", "qy", "qz"))
+            roll2 += math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)) ** 2
+            pitch2 += math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x)))) ** 2
+            zs.append(float(row["z"]))
+    if zs:
+        n = len(zs)
+        mz = sum(zs) / n
+        sd = math.sqrt(sum((v - mz) ** 2 for v in zs) / n)
+        trunk = {"roll_rms_deg": math.degrees(math.sqrt(roll2 / n)),
+                 "pitch_rms_deg": math.degrees(math.sqrt(pitch2 / n)), "height_sd_mm": 1e3 * sd,
+                 "from_s": t0, "to_s": t_ref_end}
+        print(f"  trunk (truth)    roll RMS {trunk['roll_rms_deg']:.2f} deg, pitch RMS {trunk['pitch_rms_deg']:.2f} deg, "
+              f"height s.d. {trunk['height_sd_mm']:.1f} mm over the reference ({t0:.1f}-{t_ref_end:.1f} s)")
 bt = os.path.join(out, "bus_trace.txt")
 if os.path.exists(bt):
     first = open(bt).readline().strip()
     print(f"  bus trace        {first[len('bus trace: '):] if first.startswith('bus trace: ') else first} (bus_trace.txt)")
 print(f"  files            {out}: servod.json sim.json truth.csv" + (" telemetry.lcmlog" if os.path.exists(os.path.join(out, 'telemetry.lcmlog')) else "") + (" bus_*.log" if os.path.exists(bt) else ""))
-json.dump({"fell_while_active": fell, "t_stop_s": t_stop}, open(os.path.join(out, "hil.json"), "w"))
+json.dump({"fell_while_active": fell, "t_stop_s": t_stop, "trunk": trunk}, open(os.path.join(out, "hil.json"), "w"))
 sys.exit(4 if fell else 0)
 PY
 py_rc=$?

@@ -6,7 +6,7 @@
 #       5 s of trot on mu = 0.1 with the two-stage ID in lock-step: the daemon stops cleanly, the
 #       robot does not fall while ACTIVE, the mean tracking error <= 0.047 rad (1.5 x the untuned
 #       gains' in-process 0.031 rad; with the shipped, tuned gains: 0.021 rad over 5 s, 0.034 rad
-#       over 60 s), no deadline
+#       over 60 s), the trunk's roll and pitch RMS (truth) <= 1 deg, no deadline
 #       fault (at most 5 single misses: see below), no fault event, and the LCM log decodes completely with our types.
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR fault SPEC REASON
 #       the same trot with a fault injected by hyq-sim at 2.0 s (SPEC = KIND:TARGET[:ARG]): the
@@ -195,6 +195,8 @@ case "$mode" in
     check_json 'not h["fell_while_active"]'
     check_json 'not sim["fell"]'   # after the stop either: it sits down
     check_json 's["tracking_error_mean_rad"] <= 1.5 * 0.031'
+    # the trunk stays level while the reference runs (hyq-sim's truth; 0.26 / 0.27 deg measured)
+    check_json 'h["trunk"]["roll_rms_deg"] <= 1.0 and h["trunk"]["pitch_rms_deg"] <= 1.0'
     # lock-step deadlines are the servo thread's CPU time; the loopback multicast's softirq work
     # (the other process's frames too) is charged to the sending thread now and then, a few ms
     # in one HAL write, and a busy sibling hyperthread slows the thread's own work (measured:
