@@ -144,7 +144,7 @@ if ((bus_trace)); then
 fi
 
 set +e
-/usr/bin/python3 - "$out" "$servod_rc" <<'PY'
+HYQ_HIL_SCRIPTS="$here/scripts" /usr/bin/python3 - "$out" "$servod_rc" <<'PY'
 import json, sys, os
 out, rc = sys.argv[1], int(sys.argv[2])
 s = json.load(open(os.path.join(out, "servod.json")))
@@ -197,25 +197,20 @@ t0 = sim.get("released_at_s", 0.0) + s.get("stand_up_s", 0.0)
 t_ref_end = t_stop - s.get("sit_down_s", 0.0)
 trunk = None
 if os.path.exists(truth) and t_ref_end > t0:
-    import csv, math
-    roll2 = pitch2 = 0.0
-    zs = []
-    with open(truth) as f:
-        for row in csv.DictReader(f):
-            t = float(row["t"])
-            if t < t0 or t > t_ref_end:
-                continue
-            w, x, y, z = (float(row[k]) for k in ("qw", "qx", "qy", "qz"))
-            roll2 += math.atan2(2 * (w * x + y * z), 1 - 2 * (x * x + y * y)) ** 2
-            pitch2 += math.asin(max(-1.0, min(1.0, 2 * (w * y - z * x)))) ** 2
-            zs.append(float(row["z"]))
-    if zs:
-        n = len(zs)
-        mz = sum(zs) / n
-        sd = math.sqrt(sum((v - mz) ** 2 for v in zs) / n)
-        trunk = {"roll_rms_deg": math.degrees(math.sqrt(roll2 / n)),
-                 "pitch_rms_deg": math.degrees(math.sqrt(pitch2 / n)), "height_sd_mm": 1e3 * sd,
-                 "from_s": t0, "to_s": t_ref_end}
+    import numpy as np
+    sys.path.insert(0, os.environ["HYQ_HIL_SCRIPTS"])
+    from estimator_accuracy import Usage, euler_zyx, read_truth
+    try:
+        tr = read_truth(truth)
+    except Usage as e:
+        print(f"  trunk (truth)    not measured: {e}")
+        tr = {"t": np.zeros(0)}
+    m = (tr["t"] >= t0) & (tr["t"] <= t_ref_end)
+    if m.any():
+        roll, pitch, _ = euler_zyx(tr["qw"][m], tr["qx"][m], tr["qy"][m], tr["qz"][m])
+        rms = lambda a: float(np.degrees(np.sqrt(np.mean(a ** 2))))
+        trunk = {"roll_rms_deg": rms(roll), "pitch_rms_deg": rms(pitch),
+                 "height_sd_mm": 1e3 * float(np.std(tr["z"][m])), "from_s": t0, "to_s": t_ref_end}
         print(f"  trunk (truth)    roll RMS {trunk['roll_rms_deg']:.2f} deg, pitch RMS {trunk['pitch_rms_deg']:.2f} deg, "
               f"height s.d. {trunk['height_sd_mm']:.1f} mm over the reference ({t0:.1f}-{t_ref_end:.1f} s)")
 bt = os.path.join(out, "bus_trace.txt")

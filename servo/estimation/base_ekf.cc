@@ -41,14 +41,21 @@ void BaseEkf::Predict(const Eigen::Vector3d& gyro_B, const Eigen::Vector3d& spec
   const Eigen::Vector3d f = specific_force_B - ba_;
   const Eigen::Vector3d a = R_ * f + gravity_W;
 
-  // the error's transition F = I + A dt, applied block by block: P ← F P Fᵀ
-  Covariance F = Covariance::Identity();
-  F.block<3, 3>(kP, kV).diagonal().setConstant(dt);
-  F.block<3, 3>(kV, kTheta) = -R_ * Skew(f) * dt;
-  F.block<3, 3>(kV, kBa) = -R_ * dt;
-  F.block<3, 3>(kTheta, kTheta) -= Skew(w) * dt;
-  F.block<3, 3>(kTheta, kBg).diagonal().setConstant(-dt);
-  P_ = (F * P_ * F.transpose()).eval();
+  // the error's transition F = I + A dt has five blocks besides the identity:
+  //   F_pv = I dt,  F_vθ = −R [f]× dt,  F_vba = −R dt,  F_θθ = I − [ω]× dt,  F_θbg = −I dt;
+  // P ← F P Fᵀ as M = F P (rows), then M Fᵀ (columns), block by block
+  const Eigen::Matrix3d A_vt = -R_ * Skew(f) * dt;
+  const Eigen::Matrix3d A_vba = -R_ * dt;
+  const Eigen::Matrix3d F_tt = Eigen::Matrix3d::Identity() - Skew(w) * dt;
+  Covariance& M = scratch_;
+  M = P_;
+  M.middleRows<3>(kP) += dt * P_.middleRows<3>(kV);
+  M.middleRows<3>(kV) += A_vt * P_.middleRows<3>(kTheta) + A_vba * P_.middleRows<3>(kBa);
+  M.middleRows<3>(kTheta) = F_tt * P_.middleRows<3>(kTheta) - dt * P_.middleRows<3>(kBg);
+  P_ = M;
+  P_.middleCols<3>(kP) += dt * M.middleCols<3>(kV);
+  P_.middleCols<3>(kV) += M.middleCols<3>(kTheta) * A_vt.transpose() + M.middleCols<3>(kBa) * A_vba.transpose();
+  P_.middleCols<3>(kTheta) = M.middleCols<3>(kTheta) * F_tt.transpose() - dt * M.middleCols<3>(kBg);
   const double qa = noise.accel_m_s2_sqrt_hz * noise.accel_m_s2_sqrt_hz * dt;
   const double qg = noise.gyro_rad_s_sqrt_hz * noise.gyro_rad_s_sqrt_hz * dt;
   const double qbg = noise.gyro_bias_rad_s2_sqrt_hz * noise.gyro_bias_rad_s2_sqrt_hz * dt;

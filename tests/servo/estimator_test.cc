@@ -4,10 +4,12 @@
 // would report them, and the estimate is compared with the motion.
 #include <array>
 #include <cmath>
+#include <random>
 
 #include <gtest/gtest.h>
 
 #include "dynamics/leg_kinematics.h"
+#include "dynamics/spatial.h"
 #include "servo/estimation/base_ekf.h"
 #include "servo/estimation/contact_detector.h"
 #include "servo/estimation/estimator.h"
@@ -340,6 +342,42 @@ TEST(BaseEkf, CorrectionIsTheKalmanUpdateAndHeldBiasesStayPut) {
   const BaseEkf::Covariance IKH = BaseEkf::Covariance::Identity() - Kh * H;
   const BaseEkf::Covariance P_joseph = IKH * P * IKH.transpose() + Kh * Rn * Kh.transpose();
   EXPECT_LT((held.covariance() - P_joseph).cwiseAbs().maxCoeff(), 1e-12);
+}
+
+// the prediction's covariance against the dense first-order transition F P Fᵀ + Q dt built here
+// from the error dynamics (Solà 2017), on a covariance with every block correlated
+TEST(BaseEkf, PredictionIsTheDenseTransition) {
+  BaseEkf ekf;
+  ekf.Reset(Eigen::Vector3d(0.1, -0.2, 0.6), Eigen::Quaterniond(Eigen::AngleAxisd(0.3, Eigen::Vector3d(1, 2, 3).normalized())),
+            0.1, 0.2, 0.05, 0.1, 0.01, 0.1);
+  // correlate everything: a few corrections through random measurement Jacobians
+  std::mt19937_64 rng(7);
+  std::normal_distribution<double> n(0.0, 1.0);
+  for (int k = 0; k < 4; ++k) {
+    Eigen::Matrix<double, 3, BaseEkf::kDim> H;
+    for (int i = 0; i < H.size(); ++i) H(i) = n(rng);
+    ekf.Correct<3>(H, Eigen::Vector3d(n(rng), n(rng), n(rng)) * 1e-3, Eigen::Matrix3d::Identity() * 1e-2, false);
+  }
+  const BaseEkf::Covariance P = ekf.covariance();
+  const Eigen::Matrix3d R = ekf.R_WB();
+  const Eigen::Vector3d gyro(0.4, -0.3, 0.8), force(0.7, -0.4, 9.6);
+  const BaseEkfProcessNoise q{2e-3, 0.05, 1e-4, 1e-3};
+  const double dt = 1e-3;
+  const Eigen::Vector3d w = gyro - ekf.gyro_bias(), f = force - ekf.accel_bias();
+  BaseEkf::Covariance F = BaseEkf::Covariance::Identity();
+  F.block<3, 3>(BaseEkf::kP, BaseEkf::kV) = Eigen::Matrix3d::Identity() * dt;
+  F.block<3, 3>(BaseEkf::kV, BaseEkf::kTheta) = -R * dynamics::Skew(f) * dt;
+  F.block<3, 3>(BaseEkf::kV, BaseEkf::kBa) = -R * dt;
+  F.block<3, 3>(BaseEkf::kTheta, BaseEkf::kTheta) -= dynamics::Skew(w) * dt;
+  F.block<3, 3>(BaseEkf::kTheta, BaseEkf::kBg) = -Eigen::Matrix3d::Identity() * dt;
+  Eigen::Matrix<double, BaseEkf::kDim, 1> Qd;
+  Qd << Eigen::Vector3d::Zero(), Eigen::Vector3d::Constant(q.accel_m_s2_sqrt_hz * q.accel_m_s2_sqrt_hz * dt),
+      Eigen::Vector3d::Constant(q.gyro_rad_s_sqrt_hz * q.gyro_rad_s_sqrt_hz * dt),
+      Eigen::Vector3d::Constant(q.gyro_bias_rad_s2_sqrt_hz * q.gyro_bias_rad_s2_sqrt_hz * dt),
+      Eigen::Vector3d::Constant(q.accel_bias_m_s3_sqrt_hz * q.accel_bias_m_s3_sqrt_hz * dt);
+  const BaseEkf::Covariance expected = F * P * F.transpose() + BaseEkf::Covariance(Qd.asDiagonal());
+  ekf.Predict(gyro, force, Eigen::Vector3d(0, 0, -9.81), q, dt);
+  EXPECT_LT((ekf.covariance() - expected).cwiseAbs().maxCoeff(), 1e-15 * P.cwiseAbs().maxCoeff() + 1e-18);
 }
 
 }  // namespace
