@@ -61,10 +61,15 @@ IdStatus Controller::ComputeWithBias(const dynamics::CycleDynamics& dyn, const d
   const double swing = config_.kind == ControllerKind::kPid         ? config_.pid_swing_gain_scale
                        : config_.kind == ControllerKind::kPdGravity ? config_.pdg_swing_gain_scale
                                                                     : config_.swing_gain_scale;
+  // a foot that has just landed takes the stance gains over its takeover ramp (the leg is still
+  // light: the stance gains at once would ring it behind the actuator's lag)
   dynamics::VectorJ scale = dynamics::VectorJ::Ones();
-  for (int f = 0; f < dynamics::kNumFeet; ++f)
-    if (!ref.stance[static_cast<std::size_t>(f)])
-      scale.segment<dynamics::kJointsPerLeg>(dynamics::kJointsPerLeg * f).setConstant(swing);
+  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+    const auto i = static_cast<std::size_t>(f);
+    const double w = ref.stance[i] ? std::clamp(ref.takeover[i], 0.0, 1.0) : 0.0;
+    scale.segment<dynamics::kJointsPerLeg>(dynamics::kJointsPerLeg * f)
+        .setConstant(swing + (1.0 - swing) * w);
+  }
   if (config_.kind == ControllerKind::kPid) {
     *out = IdOutput{};
     out->tau_Nm = pid_.Compute(qj, vj, ref.q, ref.qd, dt, &scale);
@@ -78,9 +83,14 @@ IdStatus Controller::ComputeWithBias(const dynamics::CycleDynamics& dyn, const d
   const FeedbackGains& g = config_.feedback;
   input_.q = q;
   input_.v = v;
-  input_.qdd_des = ref.qdd + g.kp_acc.cwiseProduct(ref.q - qj) + g.kd_acc.cwiseProduct(ref.qd - vj);
+  input_.qdd_des = ref.qdd + scale.cwiseProduct(g.kp_acc.cwiseProduct(ref.q - qj) +
+                                                g.kd_acc.cwiseProduct(ref.qd - vj));
   input_.stance = ref.stance;
-  input_.mu = env.mu;
+  // a newly landed foot's μ rises with its takeover: Stage I is still eqs 10–30 with a valid
+  // Coulomb cone per foot, so the torque stays the exact inverse of a contact model (a bound on
+  // the normal impulse instead would break eq 28: docs/inverse_dynamics.md, "Touchdown")
+  for (std::size_t f = 0; f < kNumFeet; ++f)
+    input_.mu[f] = ref.stance[f] ? env.mu[f] * std::clamp(ref.takeover[f], 0.0, 1.0) : env.mu[f];
   input_.normal_W = env.normal_W;
   input_.dt = config_.id.horizon_s > 0.0 ? config_.id.horizon_s : dt;
   IdStatus st = IdStatus::kBadInput;

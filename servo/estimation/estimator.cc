@@ -191,11 +191,12 @@ void StateEstimator::CorrectWithFeet(const VectorJ& qdj, const Eigen::Vector3d& 
     f.used = f.rejected = false;
     f.mahalanobis_sq = 0.0;
     f.contact_velocity_W.setZero();
-    if (f.contact_probability < r_min) continue;
-    ++candidates;
     H3 H;
     Eigen::Vector3d z;
     foot_measurement(l, &H, &z);
+    f.point_velocity_W = -z;
+    if (f.contact_probability < r_min) continue;
+    ++candidates;
     f.contact_velocity_W = -z;
     f.mahalanobis_sq = ekf_.MahalanobisSquared<3>(H, z, foot_noise(l));
     accept[l] = f.mahalanobis_sq <= settings_.gate_chi2;

@@ -150,6 +150,9 @@ struct FootEstimate {
   // its contact point's velocity (W) by its kinematics and the predicted base state: what the
   // foot moves at if the prediction is right (0 when not in contact)
   Eigen::Vector3d contact_velocity_W = Eigen::Vector3d::Zero();
+  // the same, whatever the contact: a foot that carries load but moves is not on the ground (the
+  // load is the torques': a foot in the air pushed down by its leg reads as loaded)
+  Eigen::Vector3d point_velocity_W = Eigen::Vector3d::Zero();
   std::int64_t rejections = 0;   // cycles rejected since the last Reset
   std::int64_t touchdowns = 0;
 };

@@ -57,7 +57,10 @@ struct MotionPhaseTable {
 
   static MotionPhase SampleReference(M& m, const MotionInputs& in) noexcept {
     if (!in.active) return MotionPhase::kRest;
-    m.reference_->Sample(m.t_ref_, m.sample_);
+    if (in.contacts != nullptr)
+      m.reference_->Sample(m.t_ref_, *in.contacts, m.sample_);
+    else
+      m.reference_->Sample(m.t_ref_, m.sample_);
     JointReference& out = *m.joints_;
     const JointReference& r = m.sample_->joints;
     out = r;

@@ -73,6 +73,9 @@ struct MotionInputs {
   std::uint64_t cycles_in_mode = 0;    // cycles in the current mode (this one counted)
   dynamics::VectorJ q_rad = dynamics::VectorJ::Zero();  // measured joint positions
   double fastest_joint_rad_s = 0.0;    // the fastest joint's speed; infinite when one is unknown
+  /// The feet's detected contact for the reference's contact-aware phases (Reference::Sample);
+  /// null: the gait's clock alone.
+  const FootContacts* contacts = nullptr;
 };
 
 /// What the sequencer asks of the safety state machine (the loop relays it, in this order).

@@ -263,7 +263,59 @@ Eigen::Vector3d Reference::FootHold(int leg, double cycle) noexcept {
   return p;
 }
 
-void Reference::SampleFeet(double t, ReferenceSample* s) noexcept {
+namespace {
+
+// the swing from `from` to `to` at x ∈ [0, 1] of a swing of Ts seconds: a minimum-jerk path
+// with the step height's bump on top; it lands with zero velocity and acceleration
+void Swing(const Eigen::Vector3d& from, const Eigen::Vector3d& to, double x, double Ts,
+           double height, FootReference* f) {
+  f->stance = false;
+  f->phase = FootPhase::kSwing;
+  const Smooth h = MinJerk(x), z = Bump(x);
+  f->p_W = from + h.s * (to - from);
+  f->v_W = h.ds / Ts * (to - from);
+  f->a_W = h.dds / (Ts * Ts) * (to - from);
+  f->p_W.z() += height * z.s;
+  f->v_W.z() += height * z.ds / Ts;
+  f->a_W.z() += height * z.dds / (Ts * Ts);
+}
+
+// a late foot's way down τ s after its stance was due: the speed rises from 0 to V over T
+// (smoothstep), then stays, until the depth reaches its bound
+struct Reach {
+  double depth, speed, acc;
+};
+Reach ReachDown(const TouchdownParams& p, double tau) {
+  if (tau <= 0.0) return {0.0, 0.0, 0.0};
+  const double V = p.reach_speed_m_s, T = p.reach_ramp_s, x = tau / T;
+  Reach r = x < 1.0 ? Reach{V * T * (x * x * x - 0.5 * x * x * x * x), V * x * x * (3.0 - 2.0 * x),
+                            V * 6.0 * x * (1.0 - x) / T}
+                    : Reach{V * T * 0.5 + V * (tau - T), V, 0.0};
+  if (r.depth >= p.reach_depth_m) r = {p.reach_depth_m, 0.0, 0.0};
+  return r;
+}
+
+// a landed foot's takeover: smoothstep from 0 at the landing to 1 after the ramp
+double Takeover(double since_landing_s, double ramp_s) {
+  if (ramp_s <= 0.0 || since_landing_s >= ramp_s) return 1.0;
+  const double x = std::max(since_landing_s, 0.0) / ramp_s;
+  return x * x * (3.0 - 2.0 * x);
+}
+
+}  // namespace
+
+const char* ToString(FootPhase p) noexcept {
+  switch (p) {
+    case FootPhase::kStance: return "stance";
+    case FootPhase::kSwing: return "swing";
+    case FootPhase::kLanded: return "landed";
+    case FootPhase::kReaching: return "reaching";
+  }
+  return "unknown";
+}
+
+void Reference::SampleFeet(double t, const FootContacts* contacts, ReferenceSample* s) noexcept {
+  const bool follow = contacts != nullptr && trot_.touchdown.follow_contact;
   for (int leg = 0; leg < kNumFeet; ++leg) {
     FootReference& f = s->feet[leg];
     f = FootReference{};
@@ -277,28 +329,96 @@ void Reference::SampleFeet(double t, ReferenceSample* s) noexcept {
     const double phase = freq * tt + kTrotOffset[leg];   // cycles, this leg
     const double n = std::floor(phase);                  // cycle index
     const double frac = phase - n;
-    if (frac < D) {  // stance of cycle n
-      f.stance = true;
+    if (follow) {
+      FollowContact(leg, t, n, frac, *contacts, s->base, &f);
+    } else if (frac < D) {  // stance of cycle n
       f.p_W = FootHold(leg, n);
-    } else {         // swing from cycle n's foothold to cycle n+1's
-      f.stance = false;
-      const Eigen::Vector3d from = FootHold(leg, n);
-      const Eigen::Vector3d to = FootHold(leg, n + 1);
-      const double Ts = (1.0 - D) / freq;  // swing duration
-      const double x = (frac - D) / (1.0 - D);
-      const Smooth h = MinJerk(x), z = Bump(x);
-      f.p_W = from + h.s * (to - from);
-      f.v_W = h.ds / Ts * (to - from);
-      f.a_W = h.dds / (Ts * Ts) * (to - from);
-      f.p_W.z() += trot_.step_height_m * z.s;
-      f.v_W.z() += trot_.step_height_m * z.ds / Ts;
-      f.a_W.z() += trot_.step_height_m * z.dds / (Ts * Ts);
+    } else {                // swing from cycle n's foothold to cycle n+1's
+      Swing(FootHold(leg, n), FootHold(leg, n + 1), (frac - D) / (1.0 - D), (1.0 - D) / freq,
+            trot_.step_height_m, &f);
     }
   }
 }
 
-void Reference::Sample(double t, ReferenceSample* out) noexcept {
-  // a restart (time going back before the plan, as on enable): from rest to the last command
+// where the measured joints put the foot: horizontally under the reference base (the gait's
+// frame), vertically under the estimated base (the ground's height, whatever the trunk's error)
+Eigen::Vector3d Reference::MeasuredFoot(int leg, const FootContacts& c,
+                                        const BaseReference& base) const noexcept {
+  const Eigen::Vector3d p_B = legs_.Foot(leg, c.q.segment<3>(3 * leg));
+  Eigen::Vector3d p;
+  p.head<2>() = base.p_W.head<2>() + Rotate(base.yaw, p_B.x(), p_B.y());
+  p.z() = c.base_height_m + c.R_WB.row(2).dot(p_B);
+  return p;
+}
+
+// a swing of cycle n starts where the foot stood in that stance: its foothold, where it landed,
+// or as far as it had reached down when the stance ended without a landing
+Eigen::Vector3d Reference::StanceStart(int leg, double cycle) noexcept {
+  const LegContact& lc = contact_[static_cast<std::size_t>(leg)];
+  if (lc.cycle != cycle) return FootHold(leg, cycle);
+  if (lc.phase != FootPhase::kReaching) return lc.p_W;
+  const double freq = trot_.step_frequency_Hz;
+  const double lift_off = trot_.start_delay_s +
+                          (cycle - kTrotOffset[static_cast<std::size_t>(leg)] + trot_.duty_factor) / freq;
+  Eigen::Vector3d p = lc.p_W;
+  p.z() -= ReachDown(trot_.touchdown, lift_off - lc.t0).depth;
+  return p;
+}
+
+void Reference::FollowContact(int leg, double t, double n, double frac, const FootContacts& c,
+                              const BaseReference& base, FootReference* f) noexcept {
+  const TouchdownParams& td = trot_.touchdown;
+  const auto l = static_cast<std::size_t>(leg);
+  const double freq = trot_.step_frequency_Hz, D = trot_.duty_factor;
+  LegContact& lc = contact_[l];
+  const double prob = c.speed_m_s[l] <= td.still_speed_m_s ? c.probability[l] : 0.0;
+  const auto hold = [&](FootPhase phase) {
+    f->stance = true;
+    f->phase = phase;
+    f->p_W = lc.p_W;
+    f->takeover = Takeover(t - lc.t0, td.load_ramp_s);
+  };
+  if (frac < D) {  // the stance of cycle n is due
+    const double due = trot_.start_delay_s + (n - kTrotOffset[l]) / freq;
+    const bool down = prob >= td.due_probability;
+    if (lc.cycle != n) {  // due now: at its foothold, and down unless the grace runs out first
+      lc = {n, FootPhase::kStance, FootHold(leg, n), due <= trot_.start_delay_s ? -1e9 : due};
+    }
+    if (lc.phase == FootPhase::kStance) {
+      if (down || lc.t0 < trot_.start_delay_s) lc.phase = FootPhase::kLanded;
+      else if (t - lc.t0 >= td.grace_s) lc = {n, FootPhase::kReaching, lc.p_W, t};
+    } else if (lc.phase == FootPhase::kReaching && down) {
+      lc = {n, FootPhase::kLanded, MeasuredFoot(leg, c, base), t};
+    }
+    if (lc.phase != FootPhase::kReaching) return hold(FootPhase::kStance);
+    const Reach r = ReachDown(td, t - lc.t0);
+    f->stance = false;
+    f->phase = FootPhase::kReaching;
+    f->p_W = lc.p_W - r.depth * Eigen::Vector3d::UnitZ();
+    f->v_W = -r.speed * Eigen::Vector3d::UnitZ();
+    f->a_W = -r.acc * Eigen::Vector3d::UnitZ();
+    return;
+  }
+  // the swing of cycle n towards the stance of n + 1
+  const double x = (frac - D) / (1.0 - D);
+  if (lc.cycle == n + 1 && lc.phase == FootPhase::kLanded) return hold(FootPhase::kLanded);
+  if (prob >= td.landing_probability && x >= td.earliest_landing) {
+    lc = {n + 1, FootPhase::kLanded, MeasuredFoot(leg, c, base), t};
+    return hold(FootPhase::kLanded);
+  }
+  Swing(StanceStart(leg, n), FootHold(leg, n + 1), x, (1.0 - D) / freq, trot_.step_height_m, f);
+}
+
+void Reference::Sample(double t, ReferenceSample* out) noexcept { SampleAt(t, nullptr, out); }
+
+void Reference::Sample(double t, const FootContacts& contacts, ReferenceSample* out) noexcept {
+  SampleAt(t, &contacts, out);
+}
+
+void Reference::SampleAt(double t, const FootContacts* contacts, ReferenceSample* out) noexcept {
+  // a restart (time going back, as on enable): the contact-aware phases forget their stances;
+  // a steered plan restarts from rest to the last command
+  if (t < last_t_) contact_.fill(LegContact{});
   if (steered_ && t < last_t_ && t < plan_t0_) {
     frozen_cycle_.fill(-1e9);
     frozen_has_next_.fill(false);
@@ -306,7 +426,11 @@ void Reference::Sample(double t, ReferenceSample* out) noexcept {
   }
   last_t_ = t;
   SampleBase(t, &out->base);
-  SampleFeet(t, out);
+  SampleFeet(t, contacts, out);
+  SolveJoints(out);
+}
+
+void Reference::SolveJoints(ReferenceSample* out) noexcept {
   out->ik = dynamics::IkStatus::kOk;
   // foot relative to the base, base frame (the base turns about z at ω = yaw_rate ẑ):
   //   p_rel = R_yawᵀ (p_F − p_B)
@@ -330,6 +454,7 @@ void Reference::Sample(double t, ReferenceSample* out) noexcept {
     out->joints.qd.segment<3>(3 * leg) = j.qd;
     out->joints.qdd.segment<3>(3 * leg) = j.qdd;
     out->joints.stance[leg] = f.stance;
+    out->joints.takeover[leg] = f.takeover;
   }
   last_q_ = out->joints.q;
 }

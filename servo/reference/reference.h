@@ -13,6 +13,14 @@
 //                 point (M. Raibert, "Legged Robots That Balance", MIT Press 1986, ch. 2):
 //                   p_foothold = p_hip(t_touchdown) + v·T_stance/2                        (1)
 //   figure_eight: the body traces a figure eight in the horizontal plane, all feet planted
+//
+// Contact-aware phases (trot; Sample with FootContacts, TouchdownParams): the gait follows the
+// feet's detected contact, not the clock alone. A foot that lands in the second part of its swing
+// is a stance foot at once: the swing is dropped and the foot held where the measured joints put
+// it (under the reference base). A foot that has not landed when its stance is due keeps reaching
+// down, from rest at a bounded speed, and stays out of the stance set until it lands. The next
+// swing starts where the foot stood. Each foot reports its takeover, 0 at its touchdown rising to
+// 1 over load_ramp_s (JointReference::takeover).
 #pragma once
 
 #include <array>
@@ -35,11 +43,35 @@ struct BaseReference {
   double yaw_acc = 0.0;
 };
 
+/// Where a foot is in the contact-aware gait.
+enum class FootPhase : std::uint8_t {
+  kStance,    // in stance (scheduled and down, or standing)
+  kSwing,     // swinging as scheduled
+  kLanded,    // down before its stance was due: held where it landed
+  kReaching,  // its stance is due but it has not landed: reaching down
+};
+/// "stance", "swing", "landed", "reaching".
+const char* ToString(FootPhase p) noexcept;
+
 struct FootReference {
   Eigen::Vector3d p_W = Eigen::Vector3d::Zero();  // foot sphere centre
   Eigen::Vector3d v_W = Eigen::Vector3d::Zero();
   Eigen::Vector3d a_W = Eigen::Vector3d::Zero();
   bool stance = true;
+  FootPhase phase = FootPhase::kStance;
+  double takeover = 1.0;  // JointReference::takeover
+};
+
+/// What the contact-aware gait is told each cycle (the state estimator's): which feet are down,
+/// and where a foot that lands is held: horizontally where the measured joints put it under the
+/// reference base, at the height the measured base pose and joints put it (so that an error of
+/// the trunk's height is not latched into the footholds).
+struct FootContacts {
+  std::array<double, kNumFeet> probability{};  // P(contact) from each foot's load
+  std::array<double, kNumFeet> speed_m_s{};    // each foot's contact point's speed
+  dynamics::VectorJ q = dynamics::VectorJ::Zero();        // measured joint angles
+  double base_height_m = 0.0;                             // estimated base position z, world
+  Eigen::Matrix3d R_WB = Eigen::Matrix3d::Identity();     // estimated base orientation
 };
 
 struct ReferenceSample {
@@ -47,6 +79,51 @@ struct ReferenceSample {
   std::array<FootReference, kNumFeet> feet;
   JointReference joints;  // q, q̇, q̈ (12) and the stance flags
   dynamics::IkStatus ik = dynamics::IkStatus::kOk;
+};
+
+/// The contact-aware phases of the trot (see the file comment).
+struct TouchdownParams {
+  bool follow_contact = true;      // false: the clock alone (the stance the schedule says)
+  double earliest_landing = 0.5;   // a contact counts as a landing after this fraction of the swing
+  // The schedule is the prior of the load's evidence (Bledt et al., "Contact Model Fusion for
+  // Event-Based Locomotion in Unstructured Terrains", ICRA 2018): a swing foot is down only on
+  // firm evidence, a foot whose stance is due on weaker evidence ...
+  double landing_probability = 0.5;
+  double due_probability = 0.1;
+  // ... and a foot whose stance is due is taken as down for this long before it counts as late:
+  // the load builds up only once the stance pushes (measured: 15-30 ms on flat ground)
+  double grace_s = 0.03;
+  // and a foot is down only if its contact point is nearly still: the load is read from the
+  // joint torques, and a foot in the air that its leg pushes down reads as loaded
+  double still_speed_m_s = 0.3;
+  double reach_speed_m_s = 0.2;    // a late foot reaches down at this speed ...
+  double reach_ramp_s = 0.02;      // ... reached from rest over this time ...
+  double reach_depth_m = 0.10;     // ... down to this far below its foothold at most
+  double load_ramp_s = 0.03;       // a landed foot's takeover rises from 0 to 1 over this time
+
+  template <class A>
+  void Serialize(A* a) {
+    a->Visit(hal::Key("follow_contact", &follow_contact)
+                 .Doc("the gait's phases follow the detected contact (false: the clock alone)"));
+    a->Visit(hal::Key("earliest_landing", &earliest_landing).In(0.1, 1.0)
+                 .Doc("a contact is a landing after this fraction of the swing"));
+    a->Visit(hal::Key("landing_probability", &landing_probability).In(0.01, 0.99)
+                 .Doc("a swing foot is down at this contact probability ..."));
+    a->Visit(hal::Key("due_probability", &due_probability).In(0.01, 0.99)
+                 .Doc("... a foot whose stance is due at this one"));
+    a->Visit(hal::Key("grace_s", &grace_s).In(0.0, 0.2).Unit("s")
+                 .Doc("a foot whose stance is due counts as down this long before it is late"));
+    a->Visit(hal::Key("still_speed_m_s", &still_speed_m_s).In(0.01, 5.0).Unit("m/s")
+                 .Doc("a foot is down only when its contact point is slower than this"));
+    a->Visit(hal::Key("reach_speed_m_s", &reach_speed_m_s).In(0.01, 1.0).Unit("m/s")
+                 .Doc("a foot not down when its stance is due reaches down at this speed ..."));
+    a->Visit(hal::Key("reach_ramp_s", &reach_ramp_s).In(0.001, 1.0).Unit("s")
+                 .Doc("... from rest over this time ..."));
+    a->Visit(hal::Key("reach_depth_m", &reach_depth_m).In(0.0, 0.2).Unit("m")
+                 .Doc("... to at most this far below its foothold"));
+    a->Visit(hal::Key("load_ramp_s", &load_ramp_s).In(0.0, 0.5).Unit("s")
+                 .Doc("a landed foot's μ and stance gains rise over this time"));
+  }
 };
 
 struct TrotParams {
@@ -59,6 +136,7 @@ struct TrotParams {
   // steering (SetVelocity): vx forward, vy left (heading frame), wz yaw rate
   std::array<double, 3> max_velocity{0.4, 0.2, 0.5};      // m/s, m/s, rad/s: commands clamped
   std::array<double, 3> max_acceleration{0.5, 0.3, 0.8};  // m/s², m/s², rad/s²: ramp bound
+  TouchdownParams touchdown;
 
   template <class A>
   void Serialize(A* a) {
@@ -83,6 +161,7 @@ struct TrotParams {
                    return std::nullopt;
                  })
                  .Doc("the steering ramps' bound (each > 0)"));
+    a->Visit("touchdown", &touchdown);
   }
 };
 
@@ -131,6 +210,9 @@ class Reference {
   /// steered trot sampled before its last command's time restarts, see SetVelocity).
   /// Never allocates.
   void Sample(double t, ReferenceSample* out) noexcept;
+  /// As above, the trot's phases following the feet's contact (TouchdownParams; the other
+  /// references and follow_contact false: the same as Sample(t, out)). Never allocates.
+  void Sample(double t, const FootContacts& contacts, ReferenceSample* out) noexcept;
 
   /// Trot only (false otherwise): steer the base to (vx, vy) m/s in the heading frame and yaw
   /// rate wz rad/s, each clamped to TrotParams::max_velocity, from the last sampled time on (not
@@ -159,9 +241,24 @@ class Reference {
     Eigen::Vector3d p_W = Eigen::Vector3d::Zero();
   };
 
+  // a leg's stance as it happened (contact-aware phases), for gait cycle `cycle`
+  struct LegContact {
+    double cycle = -1e9;
+    FootPhase phase = FootPhase::kStance;  // kLanded (held at p_W) or kReaching (from p_W)
+    Eigen::Vector3d p_W = Eigen::Vector3d::Zero();
+    double t0 = 0.0;  // the landing (kLanded) or when the reach began (kReaching)
+  };
+
   Reference(const dynamics::Model& model, Kind kind, double height_m);
+  void SampleAt(double t, const FootContacts* contacts, ReferenceSample* out) noexcept;
   void SampleBase(double t, BaseReference* b) noexcept;
-  void SampleFeet(double t, ReferenceSample* s) noexcept;
+  void SampleFeet(double t, const FootContacts* contacts, ReferenceSample* s) noexcept;
+  // the contact-aware gait of one leg in stance (frac < D) or swing of cycle n
+  void FollowContact(int leg, double t, double n, double frac, const FootContacts& c,
+                     const BaseReference& base, FootReference* f) noexcept;
+  Eigen::Vector3d MeasuredFoot(int leg, const FootContacts& c, const BaseReference& base) const noexcept;
+  Eigen::Vector3d StanceStart(int leg, double cycle) noexcept;  // where a swing from it starts
+  void SolveJoints(ReferenceSample* out) noexcept;
   double StanceMid(int leg, double cycle) const noexcept;
   Eigen::Vector3d FootHold(int leg, double cycle) noexcept;  // where a stance foot sits
   Eigen::Vector3d PlanPose(double t, PoseCursor* c) const noexcept;  // x, y, yaw
@@ -192,6 +289,7 @@ class Reference {
   std::array<Eigen::Vector3d, kNumFeet> frozen_stance_{}, frozen_next_{};
   std::array<bool, kNumFeet> frozen_has_next_{};
   std::array<std::array<Foothold, 2>, kNumFeet> footholds_{};  // cache: the last two per leg
+  std::array<LegContact, kNumFeet> contact_{};  // contact-aware phases: the last stance per leg
   double last_t_ = 0.0;
 };
 

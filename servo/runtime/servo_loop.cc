@@ -179,6 +179,7 @@ MotionInputs ServoLoop::MotionNow() const noexcept {
   in.damping = safety_.mode() == ServoMode::kDamping;
   in.damping_for_fault = safety_.damping_for_fault();
   in.cycles_in_mode = safety_.cycles_in_mode();
+  in.contacts = &contacts_;
   for (int j = 0; j < kNumJoints; ++j) {
     const auto& joint = hal_.image().joints[static_cast<std::size_t>(j)];
     in.q_rad(j) = joint.position_rad;
@@ -218,6 +219,15 @@ void ServoLoop::EnterActive() noexcept {
 
 // the motion phase's reference (outside ACTIVE it holds still)
 void ServoLoop::SampleReference() noexcept {
+  // the contact-aware gait follows the estimator's contact detection (reference.h)
+  const VectorQ& q = estimator_.q();
+  for (std::size_t f = 0; f < kNumFeet; ++f) {
+    contacts_.probability[f] = estimator_.feet()[f].contact_probability;
+    contacts_.speed_m_s[f] = estimator_.feet()[f].point_velocity_W.norm();
+  }
+  contacts_.q = q.tail<kNumJoints>();
+  contacts_.base_height_m = q(2);
+  contacts_.R_WB = estimator_.R_WB();
   if (!sequencer_.Sample(MotionNow()))
     safety_.Report(MakeFault(EventReason::kControllerFailure, -1, -1,
                              "%s: a leg's inverse kinematics failed",
@@ -325,6 +335,16 @@ void ServoLoop::PublishTelemetry(std::int64_t now_ns, hal::HalStatus rs, hal::Ha
     const double error_rad = snap_.joint_state.tracking_error_rad;
     stats_.tracking_error_sum_rad += error_rad;
     stats_.tracking_error_max_rad = std::max(stats_.tracking_error_max_rad, error_rad);
+    // the knees' margin to the safety's speed limit, the number the gains are chosen by
+    for (int j = 0; j < kNumJoints; ++j) {
+      const auto& joint = hal_.image().joints[static_cast<std::size_t>(j)];
+      const double speed = std::abs(joint.velocity_rad_s);
+      if (joint.valid() && speed > stats_.joint_speed_max_rad_s) {
+        stats_.joint_speed_max_rad_s = speed;
+        stats_.joint_speed_max_joint = j;
+        stats_.joint_speed_max_at_s = active_time_;
+      }
+    }
   }
   if (sink_ != nullptr && !sink_->Push(snap_)) ++stats_.telemetry_drops;
   DrainEvents();

@@ -59,6 +59,9 @@ struct LoopStats {
   hal::LatencyHistogram control;              // dynamics + controller
   double tracking_error_sum_rad = 0.0;        // Σ ‖q_ref − q‖ over ACTIVE cycles
   double tracking_error_max_rad = 0.0;
+  double joint_speed_max_rad_s = 0.0;         // the largest measured |q̇| over ACTIVE cycles ...
+  int joint_speed_max_joint = -1;             // ... on this joint (-1: none yet)
+  double joint_speed_max_at_s = 0.0;          // ... this long after the first ACTIVE cycle
   double qp_time_sum_us = 0.0, qp_time_max_us = 0.0;  // Stage I + II, ACTIVE cycles
 };
 
@@ -173,6 +176,7 @@ class ServoLoop {
   CommandPort command_port_;  // what a command may change (built once)
   ReferenceSample ref_;
   JointReference joint_ref_;  // the phase's: the enable ramp, the stand-up or the sit-down
+  FootContacts contacts_;     // the estimator's, for the reference's contact-aware phases
   MotionSequencer sequencer_;  // writes ref_ and joint_ref_
   IdOutput out_;
   IdStatus id_status_ = IdStatus::kOk;

@@ -318,5 +318,151 @@ TEST(Reference, SteeringRestartsFromRestAndOnlyTrotSteers) {
   EXPECT_FALSE(stand.SetVelocity(0.1, 0.0, 0.0));
 }
 
+// The contact-aware trot on a toy ground: the joints track the reference exactly, except that a
+// foot cannot go below its ground (ground_z[f] + radius); a foot at its ground is loaded
+// (P(contact) 1), else not (0). One sample per millisecond, the contacts of the last one.
+struct ToyGround {
+  std::array<double, 4> ground_z{};
+  Reference ref = Reference::Trot(HyqModel(), TrotParams{});
+  ReferenceSample s;
+  FootContacts c;
+  std::array<bool, 4> touching{};
+
+  void Step(double t) {
+    ref.Sample(t, c, &s);
+    for (int f = 0; f < 4; ++f) {
+      const double floor_z = ground_z[f] + HyqModel().feet[f].radius_m;
+      touching[f] = s.feet[f].p_W.z() <= floor_z + 1e-9;
+      c.probability[f] = touching[f] ? 1.0 : 0.0;
+    }
+    c.q = s.joints.q;  // perfect tracking: where the measured joints put the foot is the reference
+    c.base_height_m = s.base.p_W.z();
+    c.R_WB = Eigen::AngleAxisd(s.base.yaw, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  }
+};
+
+// the schedule's stance of foot f at time t (duty factor 0.6, 1.4 Hz, offsets 0, .5, .5, 0)
+bool ScheduledStance(int f, double t) {
+  const TrotParams p;
+  if (t < p.start_delay_s) return true;
+  const double phase = p.step_frequency_Hz * (t - p.start_delay_s) + (f == 1 || f == 2 ? 0.5 : 0.0);
+  return phase - std::floor(phase) < p.duty_factor;
+}
+
+TEST(ContactAwareTrot, OnFlatGroundItIsTheSchedule) {
+  ToyGround g;
+  Reference clock_only = Reference::Trot(HyqModel(), TrotParams{});
+  ReferenceSample s0;
+  double worst = 0.0;
+  for (int k = 0; k <= 4000; ++k) {
+    const double t = k * 1e-3;
+    g.Step(t);
+    clock_only.Sample(t, &s0);
+    worst = std::max(worst, (g.s.joints.q - s0.joints.q).cwiseAbs().maxCoeff());
+    for (int f = 0; f < 4; ++f) ASSERT_EQ(g.s.joints.stance[f], s0.joints.stance[f]) << "foot " << f << " at " << t;
+  }
+  EXPECT_LT(worst, 1e-12);
+}
+
+TEST(ContactAwareTrot, AFootOnAStepUpLandsEarlyAndStaysWhereItLanded) {
+  ToyGround g;  // lf steps up 3 cm at its first step (its first lift-off is at 0.93 s)
+  const double r = HyqModel().feet[0].radius_m;
+  int early_landings = 0;
+  double worst_jump = 0.0, worst_hold = 0.0;
+  Eigen::Vector3d last_p = Eigen::Vector3d::Zero(), held = Eigen::Vector3d::Zero();
+  bool was_stance = true;
+  for (int k = 0; k <= 4000; ++k) {
+    const double t = k * 1e-3;
+    if (t > 1.0) g.ground_z[0] = 0.03;
+    g.Step(t);
+    const FootReference& lf = g.s.feet[0];
+    if (k > 0) worst_jump = std::max(worst_jump, (lf.p_W - last_p).norm());
+    if (k == 0) held = lf.p_W;
+    last_p = lf.p_W;
+    if (early_landings > 0) {
+      EXPECT_GE(lf.p_W.z(), 0.03 + r - 1e-3) << "at " << t << ": below the step";
+    }
+    if (lf.stance && !was_stance) {
+      held = lf.p_W;
+      // on the step the foot lands before its stance is due, and is in the stance set at once
+      if (!ScheduledStance(0, t)) {
+        ++early_landings;
+        EXPECT_EQ(lf.phase, FootPhase::kLanded);
+        EXPECT_LT(lf.takeover, 0.1);
+      }
+    }
+    if (lf.stance) worst_hold = std::max(worst_hold, (lf.p_W - held).norm());
+    was_stance = lf.stance;
+    // the other feet are on the schedule
+    for (int f = 1; f < 4; ++f) ASSERT_EQ(g.s.joints.stance[f], ScheduledStance(f, t)) << f << " at " << t;
+  }
+  EXPECT_GE(early_landings, 4);
+  EXPECT_LT(worst_hold, 1e-12) << "a landed foot stays where it landed";
+  EXPECT_LT(worst_jump, 0.003) << "the foot's reference moves at most 3 mm per ms";
+  EXPECT_NEAR(held.z(), 0.03 + r, 2e-3);
+}
+
+TEST(ContactAwareTrot, AFootOverAStepDownReachesAndLandsLate) {
+  ToyGround g;
+  g.ground_z[0] = -0.03;  // lf: 3 cm lower than the others' ground
+  const TouchdownParams td;
+  const double r = HyqModel().feet[0].radius_m;
+  int late_landings = 0;
+  double worst_speed = 0.0, worst_jump = 0.0;
+  Eigen::Vector3d last_p = Eigen::Vector3d::Zero();
+  bool was_stance = true;
+  double reach_began = -1.0;
+  for (int k = 0; k <= 4000; ++k) {
+    const double t = k * 1e-3;
+    g.Step(t);
+    const FootReference& lf = g.s.feet[0];
+    if (k > 0) worst_jump = std::max(worst_jump, (lf.p_W - last_p).norm());
+    last_p = lf.p_W;
+    if (lf.phase == FootPhase::kReaching) {
+      if (reach_began < 0) reach_began = t;
+      EXPECT_FALSE(lf.stance) << "a reaching foot is not in the stance set, at " << t;
+      worst_speed = std::max(worst_speed, lf.v_W.norm());
+    }
+    if (lf.stance && !was_stance && reach_began >= 0) {
+      ++late_landings;
+      // it lands when it reaches the ground: 3 cm at the reach speed after the grace
+      EXPECT_NEAR(lf.p_W.z(), -0.03 + r, 2e-3);
+      EXPECT_GT(t - reach_began, 0.03 / td.reach_speed_m_s) << "landed before reaching the ground";
+      EXPECT_LT(t - reach_began, 0.03 / td.reach_speed_m_s + td.reach_ramp_s + 0.005);
+      reach_began = -1.0;
+    }
+    was_stance = lf.stance;
+  }
+  EXPECT_GE(late_landings, 4);
+  EXPECT_LE(worst_speed, td.reach_speed_m_s + 1e-9);
+  EXPECT_LT(worst_jump, 0.003);
+}
+
+TEST(ContactAwareTrot, FollowContactOffIsTheClockAndNoHeap) {
+  HYQ_REQUIRE_HEAP_HOOKS();
+  TrotParams p;
+  p.touchdown.follow_contact = false;
+  Reference a = Reference::Trot(HyqModel(), p), b = Reference::Trot(HyqModel(), p);
+  ReferenceSample sa, sb;
+  FootContacts none;  // no foot down: with the contacts followed, every landing would be late
+  {
+    testing::NoHeapGuard guard;
+    for (int k = 0; k <= 3000; ++k) {
+      a.Sample(k * 1e-3, none, &sa);
+      b.Sample(k * 1e-3, &sb);
+      ASSERT_EQ(sa.joints.q, sb.joints.q);
+      ASSERT_EQ(sa.joints.stance, sb.joints.stance);
+    }
+    EXPECT_EQ(guard.allocations(), 0u);
+  }
+  ToyGround g;
+  g.ground_z[0] = -0.03;
+  testing::NoHeapGuard guard;
+  for (int k = 0; k <= 3000; ++k) g.Step(k * 1e-3);
+  g.Step(0.0);  // a restart forgets the stances
+  EXPECT_EQ(guard.allocations(), 0u);
+  EXPECT_EQ(g.s.feet[0].phase, FootPhase::kStance);
+}
+
 }  // namespace
 }  // namespace hyq::servo

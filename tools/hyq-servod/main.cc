@@ -189,6 +189,13 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
   const double n = static_cast<double>(std::max<std::uint64_t>(s.active_cycles, 1));
   j["tracking_error_mean_rad"] = s.tracking_error_sum_rad / n;
   j["tracking_error_max_rad"] = s.tracking_error_max_rad;
+  j["joint_speed_max_rad_s"] = s.joint_speed_max_rad_s;
+  const int jmax = s.joint_speed_max_joint;
+  j["joint_speed_max_joint"] =
+      jmax < 0 ? std::string()
+               : std::string(hyq::dynamics::kLegNames[static_cast<std::size_t>(jmax / 3)]) + "_" +
+                     hyq::dynamics::kLegJointNames[static_cast<std::size_t>(jmax % 3)];
+  j["joint_speed_max_active_s"] = s.joint_speed_max_at_s;
   j["qp_time_mean_us"] = s.qp_time_sum_us / n;
   j["qp_time_max_us"] = s.qp_time_max_us;
   j["controller_fallbacks"] = s.controller_fallbacks;
