@@ -1,5 +1,6 @@
 #include "sim/plant.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <functional>
@@ -45,13 +46,34 @@ std::string FullInertia(const Eigen::Matrix3d& I) {
 
 double FootMu(const PlantConfig& c, int f) { return c.foot_mu[f] >= 0 ? c.foot_mu[f] : c.ground_mu; }
 
+std::string BoxName(int index) { return "box" + std::to_string(index); }
+
 }  // namespace
+
+double GroundHeight(const std::vector<GroundBox>& boxes, double x, double y) noexcept {
+  double h = 0.0;
+  for (const GroundBox& b : boxes)
+    if (b.Contains(x, y)) h = std::max(h, b.height_m);
+  return h;
+}
 
 std::string CoulombFloorMjcf(double mu) {
   std::ostringstream x;
   x << "<geom name=\"floor\" type=\"plane\" size=\"0 0 1\" contype=\"0\" conaffinity=\"2\" "
     << "priority=\"1\" condim=\"3\" friction=\"" << mu << " 0.005 0.0001\" " << kFloorContact
     << "/>";
+  return x.str();
+}
+
+std::string CoulombBoxMjcf(const GroundBox& box, int index, double mu) {
+  std::ostringstream x;
+  x.precision(17);
+  // MuJoCo's box: centre and half-sizes; resting on the floor, its bottom face on z = 0
+  x << "<geom name=\"" << BoxName(index) << "\" type=\"box\" pos=\"" << 0.5 * (box.x0_m + box.x1_m)
+    << ' ' << 0.5 * (box.y0_m + box.y1_m) << ' ' << 0.5 * box.height_m << "\" size=\""
+    << 0.5 * (box.x1_m - box.x0_m) << ' ' << 0.5 * (box.y1_m - box.y0_m) << ' '
+    << 0.5 * box.height_m << "\" contype=\"0\" conaffinity=\"2\" priority=\"1\" condim=\"3\" "
+    << "friction=\"" << mu << " 0.005 0.0001\" " << kFloorContact << "/>";
   return x.str();
 }
 
@@ -63,10 +85,13 @@ std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config) {
     << "  <compiler angle=\"radian\" inertiafromgeom=\"false\" balanceinertia=\"false\"/>\n"
     << "  <option timestep=\"" << config.timestep_s
     << "\" cone=\"elliptic\" impratio=\"100\"/>\n"
-    // the robot's own geoms collide only with the floor (contype 2 → floor conaffinity 2); the
-    // feet touch the floor through explicit pairs that carry their friction
+    // the robot's own geoms collide only with the ground (contype 2 → the floor's and the
+    // boxes' conaffinity 2); the feet touch the ground through explicit pairs that carry their
+    // friction
     << "  <default><geom contype=\"2\" conaffinity=\"0\" condim=\"3\"/></default>\n"
     << "  <worldbody>\n    " << CoulombFloorMjcf(config.ground_mu) << "\n";
+  for (std::size_t b = 0; b < config.boxes.size(); ++b)
+    x << "    " << CoulombBoxMjcf(config.boxes[b], static_cast<int>(b), config.ground_mu) << "\n";
   // bodies, depth first (parents precede children in the model)
   std::array<int, kNumBodies> depth{};
   std::function<void(int, int)> emit = [&](int b, int indent) {
@@ -106,11 +131,17 @@ std::string MakeMjcf(const dynamics::Model& model, const PlantConfig& config) {
   (void)depth;
   emit(dynamics::kTrunk, 4);
   x << "  </worldbody>\n  <contact>\n";
-  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+  // a foot has one μ on the floor and on every box (Plant::ApplyPatches keeps them equal)
+  auto pair = [&](int f, const std::string& suffix, const std::string& ground) {
     const double mu = FootMu(config, f);
-    x << "    <pair name=\"" << model.feet[f].name << "_floor\" geom1=\"floor\" geom2=\""
-      << model.feet[f].name << "\" condim=\"3\" friction=\"" << mu << ' ' << mu
+    x << "    <pair name=\"" << model.feet[f].name << '_' << suffix << "\" geom1=\"" << ground
+      << "\" geom2=\"" << model.feet[f].name << "\" condim=\"3\" friction=\"" << mu << ' ' << mu
       << " 0.005 0.0001 0.0001\" " << kFloorContact << "/>\n";
+  };
+  for (int f = 0; f < dynamics::kNumFeet; ++f) {
+    pair(f, "floor", "floor");
+    for (std::size_t b = 0; b < config.boxes.size(); ++b)
+      pair(f, BoxName(static_cast<int>(b)), BoxName(static_cast<int>(b)));
   }
   x << "  </contact>\n  <actuator>\n";
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
@@ -171,12 +202,23 @@ dynamics::Model PerturbModel(const dynamics::Model& nominal, const ModelErrorCon
 }
 
 Plant::Plant(const dynamics::Model& model, const PlantConfig& config)
-    : mjcf_(MakeMjcf(PerturbModel(model, config.model_error), config)),
-      patches_(config.patches),
+    : patches_(config.patches),
+      boxes_(config.boxes),
       friction_(config.joint_friction) {
   if (friction_.enabled && !(friction_.band_rad_s > 0))
     throw std::invalid_argument("joint friction: expected a velocity band > 0 rad/s, found " +
                                 std::to_string(friction_.band_rad_s));
+  for (std::size_t b = 0; b < boxes_.size(); ++b) {
+    const GroundBox& g = boxes_[b];
+    if (!(std::isfinite(g.x0_m) && std::isfinite(g.x1_m) && std::isfinite(g.y0_m) &&
+          std::isfinite(g.y1_m) && g.x0_m < g.x1_m && g.y0_m < g.y1_m && g.height_m > 0 &&
+          std::isfinite(g.height_m)))
+      throw std::invalid_argument(
+          "box " + std::to_string(b) + ": expected finite x0 < x1, y0 < y1 and a height > 0 m, found [" +
+          std::to_string(g.x0_m) + ", " + std::to_string(g.x1_m) + "] x [" + std::to_string(g.y0_m) +
+          ", " + std::to_string(g.y1_m) + "], height " + std::to_string(g.height_m));
+  }
+  mjcf_ = MakeMjcf(PerturbModel(model, config.model_error), config);
   mjVFS vfs;
   mj_defaultVFS(&vfs);
   if (mj_makeEmptyFileVFS(&vfs, "hyq.xml", static_cast<int>(mjcf_.size())) != 0)
@@ -190,7 +232,10 @@ Plant::Plant(const dynamics::Model& model, const PlantConfig& config)
   floor_geom_ = mj_name2id(m_, mjOBJ_GEOM, "floor");
   for (int f = 0; f < dynamics::kNumFeet; ++f) {
     foot_geom_[f] = mj_name2id(m_, mjOBJ_GEOM, model.feet[f].name.c_str());
-    foot_pair_[f] = mj_name2id(m_, mjOBJ_PAIR, (model.feet[f].name + "_floor").c_str());
+    foot_pairs_[f].push_back(mj_name2id(m_, mjOBJ_PAIR, (model.feet[f].name + "_floor").c_str()));
+    for (std::size_t b = 0; b < boxes_.size(); ++b)
+      foot_pairs_[f].push_back(mj_name2id(
+          m_, mjOBJ_PAIR, (model.feet[f].name + '_' + BoxName(static_cast<int>(b))).c_str()));
     foot_body_[f] = m_->geom_bodyid[foot_geom_[f]];
     base_mu_[static_cast<std::size_t>(f)] = FootMu(config, f);
   }
@@ -225,17 +270,24 @@ void Plant::Step(const dynamics::VectorJ& tau_Nm) {
   ApplyPatches();
 }
 
-// each foot's contact pair takes the μ of the ground under the sphere's centre (geom_xpos is
-// the state the next step starts from)
+// each foot's contact pairs (the floor's and the boxes') take the μ of the ground under the
+// sphere's centre (geom_xpos is the state the next step starts from)
 void Plant::ApplyPatches() {
   if (patches_.empty()) return;
   for (int f = 0; f < dynamics::kNumFeet; ++f) {
     const mjtNum* p = d_->geom_xpos + 3 * foot_geom_[f];
-    const double mu = FrictionAt(f, p[0], p[1]);
-    m_->pair_friction[5 * foot_pair_[f] + 0] = mu;
-    m_->pair_friction[5 * foot_pair_[f] + 1] = mu;
+    SetPairFriction(f, FrictionAt(f, p[0], p[1]));
   }
 }
+
+void Plant::SetPairFriction(int foot, double mu) {
+  for (const int pair : foot_pairs_[static_cast<std::size_t>(foot)]) {
+    m_->pair_friction[5 * pair + 0] = mu;
+    m_->pair_friction[5 * pair + 1] = mu;
+  }
+}
+
+bool Plant::IsGround(int geom) const noexcept { return m_->geom_bodyid[geom] == 0; }
 
 double Plant::FrictionAt(int foot, double x, double y) const {
   for (const GroundPatch& p : patches_)
@@ -255,34 +307,56 @@ ImuReading Plant::Imu() const {
   return r;
 }
 
+bool Plant::IsFoot(int geom) const noexcept {
+  return std::find(foot_geom_.begin(), foot_geom_.end(), geom) != foot_geom_.end();
+}
+
 bool Plant::BodyTouchesGround() const {
   for (int i = 0; i < d_->ncon; ++i) {
     const mjContact& c = d_->contact[i];
-    const int other = c.geom1 == floor_geom_ ? c.geom2 : c.geom2 == floor_geom_ ? c.geom1 : -1;
-    if (other < 0) continue;
-    bool foot = false;
-    for (int f = 0; f < dynamics::kNumFeet; ++f) foot = foot || other == foot_geom_[f];
-    if (!foot) return true;
+    const bool ground1 = IsGround(c.geom1), ground2 = IsGround(c.geom2);
+    if (ground1 != ground2 && !IsFoot(ground1 ? c.geom2 : c.geom1)) return true;
+  }
+  return false;
+}
+
+bool Plant::BodyDownOnGround() const {
+  for (int i = 0; i < d_->ncon; ++i) {
+    const mjContact& c = d_->contact[i];
+    const bool ground1 = IsGround(c.geom1), ground2 = IsGround(c.geom2);
+    if (ground1 == ground2) continue;
+    const int ground = ground1 ? c.geom1 : c.geom2, other = ground1 ? c.geom2 : c.geom1;
+    if (IsFoot(other)) continue;
+    // a shin on a box's edge: the lower leg's body is the foot's
+    const int body = m_->geom_bodyid[other];
+    if (ground != floor_geom_ &&
+        std::find(foot_body_.begin(), foot_body_.end(), body) != foot_body_.end())
+      continue;
+    return true;
   }
   return false;
 }
 
 void Plant::SetFootFriction(int foot, double mu) {
   base_mu_[static_cast<std::size_t>(foot)] = mu;
-  m_->pair_friction[5 * foot_pair_[foot] + 0] = mu;
-  m_->pair_friction[5 * foot_pair_[foot] + 1] = mu;
+  SetPairFriction(foot, mu);
   ApplyPatches();
 }
-double Plant::foot_friction(int foot) const { return m_->pair_friction[5 * foot_pair_[foot]]; }
+double Plant::foot_friction(int foot) const {
+  return m_->pair_friction[5 * foot_pairs_[static_cast<std::size_t>(foot)].front()];
+}
 
 std::array<FootContact, 4> Plant::FootContacts() const {
   std::array<FootContact, 4> out{};
+  std::array<double, 4> strongest{};  // the largest normal force of each foot's contacts
   for (int i = 0; i < d_->ncon; ++i) {
     const mjContact& c = d_->contact[i];
+    const bool ground1 = IsGround(c.geom1), ground2 = IsGround(c.geom2);
+    if (ground1 == ground2) continue;
+    const int other = ground1 ? c.geom2 : c.geom1;
     for (int f = 0; f < dynamics::kNumFeet; ++f) {
-      if (!((c.geom1 == floor_geom_ && c.geom2 == foot_geom_[f]) ||
-            (c.geom2 == floor_geom_ && c.geom1 == foot_geom_[f])))
-        continue;
+      if (other != foot_geom_[f]) continue;
+      const auto fi = static_cast<std::size_t>(f);
       mjtNum local[6];
       mj_contactForce(m_, d_, i, local);
       // the contact frame's rows are its axes (normal first), pointing from geom1 to geom2; the
@@ -290,8 +364,11 @@ std::array<FootContact, 4> Plant::FootContacts() const {
       const Eigen::Map<const Eigen::Matrix<mjtNum, 3, 3, Eigen::RowMajor>> frame(c.frame);
       Eigen::Vector3d f_W = frame.transpose() * Eigen::Vector3d(local[0], local[1], local[2]);
       if (c.geom1 == foot_geom_[f]) f_W = -f_W;
-      out[f].touching = true;
-      out[f].force_W += f_W;
+      const bool first = !out[fi].touching;
+      out[fi].touching = true;
+      out[fi].force_W += f_W;
+      if (!first && local[0] <= strongest[fi]) continue;
+      strongest[fi] = local[0];
       // velocity of the foot's material point at the contact
       mjtNum vel[6];
       mj_objectVelocity(m_, d_, mjOBJ_GEOM, foot_geom_[f], vel, 0);
@@ -300,7 +377,7 @@ std::array<FootContact, 4> Plant::FootContacts() const {
                                 Eigen::Vector3d(d_->geom_xpos + 3 * foot_geom_[f]);
       const Eigen::Vector3d v_p = v_c + w.cross(r);
       const Eigen::Vector3d n(c.frame[0], c.frame[1], c.frame[2]);
-      out[f].slip_velocity_W = v_p - v_p.dot(n) * n;
+      out[fi].slip_velocity_W = v_p - v_p.dot(n) * n;
     }
   }
   return out;

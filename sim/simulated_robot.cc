@@ -15,19 +15,29 @@
 namespace hyq::sim {
 namespace {
 
-// HyQ resting at base height `height_m`: the base level at the origin, each foot on the ground
-// under its place in the standing posture, the legs' joints by their inverse kinematics from
-// the standing angles
-dynamics::VectorQ RestingQ(const dynamics::Model& model, double height_m) {
+// HyQ resting with its base `height_m` above the lowest ground under its feet: the base level
+// over the origin, each foot on the ground under its place in the standing posture (the floor,
+// or the top of a box: PlantConfig::boxes), the legs' joints by their inverse kinematics from the
+// standing angles
+dynamics::VectorQ RestingQ(const dynamics::Model& model, const Plant& plant, double height_m) {
   const dynamics::LegKinematics legs(model);
+  std::array<Eigen::Vector3d, dynamics::kNumFeet> p_BF_B;
+  std::array<double, dynamics::kNumFeet> ground_m{};
+  for (int leg = 0; leg < dynamics::kNumFeet; ++leg) {
+    const auto i = static_cast<std::size_t>(leg);
+    p_BF_B[i] = legs.Foot(leg, model.q_standing.segment<dynamics::kJointsPerLeg>(3 * leg));
+    ground_m[i] = plant.GroundHeightAt(p_BF_B[i].x(), p_BF_B[i].y());  // the base over the origin
+  }
+  const double base_z = height_m + *std::min_element(ground_m.begin(), ground_m.end());
   dynamics::VectorQ q = model.StandingQ();
-  q(2) = height_m;
+  q(2) = base_z;
   dynamics::IkStatus status = dynamics::IkStatus::kOk;
   for (int leg = 0; leg < dynamics::kNumFeet; ++leg) {
+    const auto i = static_cast<std::size_t>(leg);
     const Eigen::Vector3d q_leg = model.q_standing.segment<dynamics::kJointsPerLeg>(3 * leg);
     dynamics::FootMotion foot;
-    foot.p_BF_B = legs.Foot(leg, q_leg);
-    foot.p_BF_B.z() = model.feet[leg].radius_m - height_m;
+    foot.p_BF_B = p_BF_B[i];
+    foot.p_BF_B.z() = ground_m[i] + model.feet[leg].radius_m - base_z;
     dynamics::LegJointMotion j;
     const dynamics::IkStatus st = legs.Solve(leg, foot, q_leg, &j);
     if (st != dynamics::IkStatus::kOk && status == dynamics::IkStatus::kOk) status = st;
@@ -38,6 +48,19 @@ dynamics::VectorQ RestingQ(const dynamics::Model& model, double height_m) {
                            " m: expected a height the legs reach with the feet on the ground, found " +
                            dynamics::ToString(status));
   return q;
+}
+
+// The start posture: RestingQ at start_height_m; at 0, the standing posture, on the floor as the
+// model gives it or, with a foot over a box, RestingQ at the standing base height
+dynamics::VectorQ StartQ(const dynamics::Model& model, const Plant& plant, double start_height_m) {
+  if (start_height_m > 0.0) return RestingQ(model, plant, start_height_m);
+  const dynamics::LegKinematics legs(model);
+  for (int leg = 0; leg < dynamics::kNumFeet; ++leg) {
+    const Eigen::Vector3d p = legs.Foot(leg, model.q_standing.segment<dynamics::kJointsPerLeg>(3 * leg));
+    if (plant.GroundHeightAt(p.x(), p.y()) > 0.0)
+      return RestingQ(model, plant, model.standing_base_height_m);
+  }
+  return model.StandingQ();
 }
 
 }  // namespace
@@ -122,7 +145,7 @@ SimulatedRobot::SimulatedRobot(const dynamics::Model& model, const hal::HalConfi
   }
   gyro_bias_ = cfg.gyro_bias_rad_s + cfg.profile.GyroBias();
   accel_bias_ = cfg.accel_bias_m_s2 + cfg.profile.AccelBias();
-  q_hold_ = cfg.start_height_m > 0.0 ? RestingQ(model, cfg.start_height_m) : model.StandingQ();
+  q_hold_ = StartQ(model, *plant_, cfg.start_height_m);
   plant_->Reset(q_hold_, dynamics::VectorV::Zero());
   actuation_->Reset(q_hold_.tail<dynamics::kNumJoints>());
   board_velocity_->Reset(q_hold_.tail<dynamics::kNumJoints>());
@@ -241,7 +264,8 @@ void SimulatedRobot::Step() noexcept {
   if (!fell_ && !holding_) {
     const dynamics::VectorQ q = plant_->q();
     const double up = Eigen::Quaterniond(q(3), q(4), q(5), q(6)).toRotationMatrix()(2, 2);
-    const bool contact = z < cfg_.fall_height_m || plant_->BodyTouchesGround();
+    const bool contact =
+        z - plant_->GroundHeightAt(q(0), q(1)) < cfg_.fall_height_m || plant_->BodyDownOnGround();
     if (contact && !sat_down_) {
       contact_speed_m_s_ = -plant_->v()(2);
       const bool gentle = contact_speed_m_s_ <= cfg_.max_sit_speed_m_s && up > std::cos(M_PI / 6);

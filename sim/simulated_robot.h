@@ -60,7 +60,9 @@
 namespace hyq::sim {
 
 struct SimulatedRobotConfig {
-  PlantConfig plant;                      // timestep_s is taken from the HAL's cycle period
+  /// timestep_s is taken from the HAL's cycle period; the ground (ground_mu, foot_mu, patches,
+  /// boxes) is used as given
+  PlantConfig plant;
   /// How the plant differs from the model: model error, hydraulic actuators instead of eq. (1),
   /// joint friction, delay, sensor biases, sensor noise, and how the boards make the joint
   /// velocity. Default: ideal (none of them; the boards' velocity).
@@ -71,11 +73,14 @@ struct SimulatedRobotConfig {
   Eigen::Vector3d accel_bias_m_s2 = Eigen::Vector3d::Zero();     // IMU frame
   bool hold = true;                       // hold at the start posture until all enabled
   /// The start posture: base height with the feet on the ground under their standing places
-  /// (0: standing). Default: HyQ's resting crouch, from which the daemon stands it up.
+  /// (0: standing). Default: HyQ's resting crouch, from which the daemon stands it up. With
+  /// boxes (plant.boxes) under feet, each foot rests on the ground under it (the box's top) and the
+  /// height is above the lowest of them: on a platform under all four feet, above the platform.
   double start_height_m = 0.40;
   std::uint64_t seed = 1;                 // sensor noise (the profile's σ) and the emulator's random drops
-  /// Ground contact: the trunk or a leg (not a foot) touches the ground, or the base is below
-  /// this height. It is a sit-down when the base comes down no faster than max_sit_speed_m_s
+  /// Ground contact: the trunk or a leg (not a foot) touches the floor, the trunk or an upper leg
+  /// touches a box (Plant::BodyDownOnGround: a shin grazing a box's edge is not one), or the base
+  /// is below this height above the ground under it (the floor or a box's top). It is a sit-down when the base comes down no faster than max_sit_speed_m_s
   /// and the trunk is upright (tilt < 30°), a fall otherwise; after a sit-down, a tilt past 45°
   /// is still a fall.
   double fall_height_m = 0.2;  // the trunk within 0.1 m of the ground

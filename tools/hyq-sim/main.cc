@@ -79,7 +79,7 @@ std::string Help() {
   return std::string(
       "usage: hyq-sim [--config FILE] [--urdf FILE] [--interface BUS=SPEC]...\n"
       "               [--mode lockstep|realtime] [--duration S] [--mu MU] [--foot-mu A,B,C,D]\n"
-      "               [--ground-patch X0,X1,Y0,Y1,MU]...\n"
+      "               [--ground-patch X0,X1,Y0,Y1,MU]... [--box X0,X1,Y0,Y1,H]...\n"
       "               [--actuator-tau S] [--actuator-rate-limit NM_S] [--no-hold]\n"
       "               [--start-height M] [--seed N]\n"
       "               [--profile ideal|realistic] [--payload KG,X,Y,Z|off] [--link-errors SEED|off]\n"
@@ -107,6 +107,10 @@ std::string Help() {
       "  --foot-mu A,B,C,D      per-foot friction lf,rf,lh,rh (negative: the ground's)\n"
       "  --ground-patch X0,X1,Y0,Y1,MU  a rectangle of the ground (world x, y in m) with friction\n"
       "                         MU; a foot above it has that μ (repeatable; the first listed wins)\n"
+      "  --box X0,X1,Y0,Y1,H    a step: a box on the floor over that rectangle (world x, y in m),\n"
+      "                         its top H m high, 0 < H <= 0.3 (repeatable). A step up: a box\n"
+      "                         where a foot lands; a step down of H: a platform the robot starts\n"
+      "                         on and walks off. Feet over a box start on its top\n"
       "  --actuator-tau S       actuator time constant (default 0.005; 0 = ideal)\n"
       "  --actuator-rate-limit R  torque rate limit, N·m/s (default 0 = none)\n"
       "  --no-hold              do not hold the robot on its stand until all outputs are enabled\n"
@@ -153,7 +157,8 @@ std::string Help() {
          "; off unless given), for hyq-viewer's ghost\n"
          "  --lcm-truth-every N    one HYQ_SIM_TRUTH message every N steps (default 10)\n"
          "  --summary FILE         JSON at exit (time, fell, min base height, SYNCs per bus, speed)\n"
-         "  --fall-height M        the base below this height, or the trunk or a leg on the ground,\n"
+         "  --fall-height M        the base below this height above the ground (floor or box) under\n"
+         "                         it, or the trunk or a leg on the ground,\n"
          "                         is a ground contact (default 0.2): a sit-down when the base comes\n"
          "                         down at most 0.5 m/s with the trunk upright, else a fall\n"
          "  --rt-priority P        realtime mode: SCHED_FIFO priority of the stepping thread, below\n"
@@ -218,6 +223,26 @@ hyq::sim::GroundPatch GroundPatch(hyq::cli::CommandLine& cl) {
   return p;
 }
 
+// --box X0,X1,Y0,Y1,H
+hyq::sim::GroundBox Box(hyq::cli::CommandLine& cl) {
+  const std::string v = cl.Value();
+  const std::vector<std::string> f = hyq::cli::Split(v, ',');
+  if (f.size() != 5) cl.BadValue("five numbers X0,X1,Y0,Y1,H", v);
+  constexpr double kMaxM = 1000.0;
+  const char* const where = "metres in [-1000, 1000]";
+  hyq::sim::GroundBox b;
+  b.x0_m = cl.NumberOf("--box X0", f[0], -kMaxM, kMaxM, where);
+  b.x1_m = cl.NumberOf("--box X1", f[1], -kMaxM, kMaxM, where);
+  b.y0_m = cl.NumberOf("--box Y0", f[2], -kMaxM, kMaxM, where);
+  b.y1_m = cl.NumberOf("--box Y1", f[3], -kMaxM, kMaxM, where);
+  // resting on the floor, so higher than it; 0.3 m is half HyQ's standing leg length
+  const char* const height = "a height in (0, 0.3] m (a step down is a platform to walk off)";
+  b.height_m = cl.NumberOf("--box H", f[4], 0.0, 0.3, height);
+  if (b.height_m == 0.0) cl.Bad("--box H", height, f[4]);
+  if (!(b.x0_m < b.x1_m) || !(b.y0_m < b.y1_m)) cl.BadValue("X0 < X1 and Y0 < Y1", v);
+  return b;
+}
+
 // --fault T:KIND:TARGET[:ARG]: the time and the kind now; the target and the argument when the
 // HAL configuration is loaded (sim::ParseFaultSpec)
 std::string Fault(hyq::cli::CommandLine& cl) {
@@ -260,6 +285,7 @@ Options Parse(hyq::cli::CommandLine& cl) {
       const char* const parts[] = {"--foot-mu A", "--foot-mu B", "--foot-mu C", "--foot-mu D"};
       for (std::size_t f = 0; f < 4; ++f) o.robot.plant.foot_mu[f] = cl.NumberOf(parts[f], p[f]);
     } else if (cl.Flag("--ground-patch")) o.robot.plant.patches.push_back(GroundPatch(cl));
+    else if (cl.Flag("--box")) o.robot.plant.boxes.push_back(Box(cl));
     else if (cl.Flag("--actuator-tau")) o.robot.actuator_tau_s = cl.Number(0.0, kNoMax, "seconds >= 0");
     else if (cl.Flag("--actuator-rate-limit"))
       o.robot.actuator_rate_limit_Nm_s = cl.Number(0.0, kNoMax, "N·m/s >= 0");
@@ -662,9 +688,14 @@ Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
   const double stepping_wall = recorder.stepping_wall_s();
   Json syncs = Json::object();
   for (std::size_t b = 0; b < cfg.buses.size(); ++b) syncs[cfg.buses[b].name] = c.syncs[b];
+  Json boxes = Json::array();
+  for (const sim::GroundBox& b : o.robot.plant.boxes)
+    boxes.push_back({{"x0_m", b.x0_m}, {"x1_m", b.x1_m}, {"y0_m", b.y0_m}, {"y1_m", b.y1_m},
+                     {"height_m", b.height_m}});
   Json s = {
       {"mode", o.lockstep ? "lockstep" : "realtime"},
       {"profile", Json::parse(o.robot.profile.Json())},
+      {"boxes", std::move(boxes)},
       {"imu_bias_B", {{"gyro_rad_s", {robot.gyro_bias_B().x(), robot.gyro_bias_B().y(), robot.gyro_bias_B().z()}},
                       {"accel_m_s2", {robot.accel_bias_B().x(), robot.accel_bias_B().y(), robot.accel_bias_B().z()}}}},
       {"simulated_time_s", robot.time_s()},
