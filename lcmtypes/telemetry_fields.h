@@ -109,6 +109,9 @@ void Serialize(A* a, lcmt_hyq_contact_state* m) {
   a->Visit("foot_rejections", "count", &m->foot_rejections, kFootLabels);
   a->Visit("mu", "1", &m->mu, kFootLabels);
   a->Visit("contact_force_N", "N", &m->contact_force_N, kFootLabels, kXyzLabels);
+  a->Visit("ground_force_N", "N", &m->ground_force_N, kFootLabels, kXyzLabels);
+  a->Visit("landed_probability", "1", &m->landed_probability, kFootLabels);
+  a->Visit("gait_phase", "enum", &m->gait_phase, kFootLabels);
   a->Visit("stage1_status", "enum", &m->stage1_status);
   a->Visit("stage2_status", "enum", &m->stage2_status);
   a->Visit("fallback", "enum", &m->fallback);

@@ -17,8 +17,11 @@ HERE = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_BUILD = os.path.join(HERE, "build", "ci")
 
 CONTROLLERS = ["pid", "pd_gravity", "noslip", "two_stage"]
-# the scripts' short names of hil.sh's references
-REFERENCES = {"trot": "trot", "eight": "figure_eight"}
+# the scripts' short names of hil.sh's references; "steer" is the trot steered by a script of
+# set-velocity commands (hyq-servod --steer, reference time): forward faster, then a left turn,
+# then sideways turning right
+REFERENCES = {"trot": "trot", "eight": "figure_eight", "steer": "trot"}
+STEER = ["2:0.3,0,0", "6:0.2,0,0.4", "12:0.1,0.1,-0.3"]
 LEGS = ["lf", "rf", "lh", "rh"]
 
 # sensor noise and actuator lag (hyq-sim's default lag is 5 ms)
@@ -85,16 +88,18 @@ def read_json(path):
 
 
 def command(out, controller, build=DEFAULT_BUILD, reference="trot", duration_s=5.0, mu=0.1,
-            sim_args=(), servod_config=None, clock="lockstep"):
+            sim_args=(), servod_config=None, clock="lockstep", steer=()):
     """scripts/hil.sh's command line for one run into folder `out`: `reference` (hil.sh's name)
     for `duration_s` of ACTIVE time with `controller` on ground friction `mu`, hyq-sim's
     arguments `sim_args`, the daemon's configuration file `servod_config` (default: hil.sh's,
-    the shipped simulation configuration), no LCM logger."""
+    the shipped simulation configuration), `steer` hyq-servod --steer commands, no LCM logger."""
     cmd = [os.path.join(HERE, "scripts", "hil.sh"), "--build", build, "--out", out, "--quiet", "--no-logger",
            "--clock", clock, "--duration", str(duration_s), "--reference", reference,
            "--controller", controller, "--mu", str(mu)]
     if servod_config:
         cmd += ["--servod-arg", "--config", "--servod-arg", servod_config]
+    for s in steer:
+        cmd += ["--servod-arg", "--steer", "--servod-arg", s]
     for a in sim_args:
         cmd += ["--sim-arg", a]
     return cmd
@@ -140,7 +145,8 @@ def judge(r):
     faults = [e["reason"] for e in s["event_log"] if e["to"] in ("damping", "fault") and e["reason"] != "stop_request"]
     fell_active = sim.get("fell", False) and sim.get("fell_at_s", 0) < sim.get("released_at_s", 0) + s["active_s"]
     res.update(error=s["tracking_error_mean_rad"], error_max=s["tracking_error_max_rad"],
-               active_s=s["active_s"], final_mode=s["final_mode"], faults=faults,
+               peak_rad_s=s.get("joint_speed_max_rad_s", float("nan")),
+               peak_joint=s.get("joint_speed_max_joint", ""), active_s=s["active_s"], final_mode=s["final_mode"], faults=faults,
                fell=bool(sim.get("fell", False)), fell_while_active=bool(fell_active))
     res["stable"] = r.exit == 0 and not faults and not sim.get("fell", False) and s["final_mode"] == "stopped"
     if not res["stable"]:

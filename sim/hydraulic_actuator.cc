@@ -124,12 +124,20 @@ double HydraulicActuator::Step(double tau_ref, double q0, double qd) noexcept {
     if (r != 0) {
       const double e = tau_ref / r - force_;
       const double ldot = r * qd;
-      // velocity compensation: the opening that passes the piston side's flow A_a L̇ at the
-      // chamber's present pressure drop (the boards read both chamber pressures)
+      // velocity compensation (6): the opening whose two flows leave the rod force unchanged
+      // by the motion, at the chambers' present pressure drops and volumes (the boards read
+      // both chamber pressures)
       double u_ff = 0.0;
       if (p_.velocity_compensation) {
-        const double drop = ldot >= 0 ? ps - pa_ : pa_ - pr;
-        u_ff = area_a_ * ldot / (k_orifice_ * std::sqrt(std::max(drop, lam)));
+        const double len = Length(q);
+        const double va = p_.dead_volume_m3 + area_a_ * std::max(len - len_min_, 0.0);
+        const double vb = p_.dead_volume_m3 + area_b_ * std::max(len_max_ - len, 0.0);
+        const double drop_a = ldot >= 0 ? ps - pa_ : pa_ - pr;
+        const double drop_b = ldot >= 0 ? pb_ - pr : ps - pb_;
+        const double demand = area_a_ * area_a_ / va + area_b_ * area_b_ / vb;
+        const double supply = area_a_ * std::sqrt(std::max(drop_a, lam)) / va +
+                              area_b_ * std::sqrt(std::max(drop_b, lam)) / vb;
+        u_ff = ldot * demand / (k_orifice_ * supply);
       }
       u = kp_ * e + ki_ * integral_ + u_ff;
       // anti-windup: integrate only while the command is not saturated

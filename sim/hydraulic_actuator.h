@@ -18,8 +18,15 @@
 // chamber does not need a tiny step. The board's torque loop (Boaventura et al. 2012: PID on the
 // load-cell force plus a velocity compensation that opens the valve for the flow the motion
 // needs) runs at loop_rate_hz with a zero-order hold on u:
-//   u = k_p e + k_i ∫e + A_a L̇ / (K √Δp_a),   e = τ_ref / r(q) − F                           (5)
-// (Δp_a the piston side's orifice drop: p_s − p_a extending, p_a − p_r retracting)
+//   u = k_p e + k_i ∫e + u_v,   e = τ_ref / r(q) − F                                         (5)
+// with u_v the opening whose flows, by (2)-(3), leave the rod force's rate A_a ṗ_a − A_b ṗ_b
+// unchanged by the motion L̇ (the compensation cancels the cylinder's natural velocity feedback,
+// no more: sized for the piston side alone, the same opening over-fed the rod side, and the
+// joint pushed along its own motion, a negative damping of ≈ −10 N·m·s/rad at 10 Hz that
+// hyq-loop-model measured):
+//   u_v = L̇ (A_a²/V_a + A_b²/V_b) / (K (A_a √Δp_a / V_a + A_b √Δp_b / V_b))                  (6)
+// (Δp_a, Δp_b the orifice drops the motion's flows pass: p_s − p_a and p_b − p_r extending,
+// p_a − p_r and p_s − p_b retracting)
 // The joint moves during the plant step as q + q̇ t (the plant's state at the step's start).
 //
 // Step() allocates nothing and never throws; the constructor checks the parameters (throws).

@@ -52,6 +52,14 @@ struct MotionPhaseTable {
   static MotionPhase SamplePosture(M& m, const MotionInputs& in) noexcept {
     if (!in.active) return MotionPhase::kRest;
     m.sample_ok_ = m.posture_.Sample(m.phase_t_, m.joints_);
+    // sitting down, a foot being lowered is a stance foot once it is on the ground, not when
+    // its lowering's clock ends: short of the ground the IDs would push it down through the air
+    // as if it carried its share (the feet that stood when the sit-down began stay in the
+    // stance set: the stand-up, too, needs its feet pushed before they carry anything)
+    if (m.phase_ == MotionPhase::kSitDown && in.contacts != nullptr)
+      for (std::size_t f = 0; f < kNumFeet; ++f)
+        if (!m.posture_.starts_on_ground(f) && in.contacts->probability[f] < 0.5)
+          m.joints_->stance[f] = false;
     return m.phase_;
   }
 
@@ -104,6 +112,11 @@ struct MotionPhaseTable {
   // the run's duration is reference time: the stand-up and the sit-down come on top
   static MotionPhase AdvanceReference(M& m, MotionRequests* r) noexcept {
     m.t_ref_ += m.dt_;
+    const MotionConfig& c = m.config_;
+    while (m.steer_next_ < c.steer_count && c.steer[m.steer_next_].t_s <= m.t_ref_ + 1e-9) {
+      const TimedVelocity& s = c.steer[m.steer_next_++];
+      m.reference_->SetVelocity(s.vx_m_s, s.vy_m_s, s.wz_rad_s);
+    }
     if (m.config_.duration_s > 0.0 && m.t_ref_ >= m.config_.duration_s) r->duration_over = true;
     return m.phase_;
   }
@@ -118,11 +131,13 @@ struct MotionPhaseTable {
 
   static MotionPhase SitAtOnce(const M&) noexcept { return MotionPhase::kSitDown; }
 
-  // a gait's swing foot comes down within half a gait cycle; a reference that never has every
-  // foot down still sits after kMaxSitWaitS
+  // a gait's swing foot comes down within half a gait cycle (a foot reaching down late counts:
+  // its stance is due, and the sit-down lowers it onto the ground); a reference that never has
+  // every foot down still sits after kMaxSitWaitS
   static MotionPhase SitOnceFeetDown(const M& m) noexcept {
-    const auto& st = m.joints_->stance;
-    const bool all_down = st[0] && st[1] && st[2] && st[3];
+    bool all_down = true;
+    for (std::size_t f = 0; f < kNumFeet; ++f)
+      all_down = all_down && (m.joints_->stance[f] || m.sample_->feet[f].phase == FootPhase::kReaching);
     return all_down || m.sit_wait_s_ >= M::kMaxSitWaitS ? MotionPhase::kSitDown : m.phase_;
   }
 };
@@ -164,6 +179,7 @@ void MotionSequencer::Enter(MotionPhase next, const MotionInputs& in) noexcept {
 void MotionSequencer::Enable(const MotionInputs& in) noexcept {
   q0_ = in.q_rad;
   t_ref_ = 0.0;
+  steer_next_ = 0;
   sit_pending_ = false;
   sit_wait_s_ = 0.0;
   reference_->Sample(0.0, sample_);

@@ -62,6 +62,8 @@ struct MotionConfig {
   double duration_s = 0.0;             // reference time after which a stop is asked for; 0: never
   double settle_speed_rad_s = 0.05;    // SETTLE: a joint slower than this rests
   double settle_max_s = 5.0;           // SETTLE: the longest hold of the damping
+  std::array<TimedVelocity, kMaxTimedVelocities> steer{};  // in increasing t_s ...
+  std::size_t steer_count = 0;         // ... this many
 };
 
 /// What the sequencer is told on each call: the mode of the safety state machine and the
@@ -147,6 +149,7 @@ class MotionSequencer {
   double settled_s_ = 0.0;                 // SETTLE: how long every joint has been at rest
   bool settling_ = false, hold_damping_ = false;
   bool sample_ok_ = true;
+  std::size_t steer_next_ = 0;  // the first scripted command not yet applied
 };
 
 }  // namespace hyq::servo

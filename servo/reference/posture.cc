@@ -9,6 +9,7 @@ namespace hyq::servo {
 namespace {
 
 constexpr double kOnGroundTolerance_m = 0.01;
+constexpr double kTakeoverS = 0.03;  // a lowered foot's takeover (JointReference::takeover)
 
 }  // namespace
 
@@ -102,8 +103,9 @@ bool PostureMove::Sample(double t, JointReference* out) noexcept {
       out->qd.segment<3>(3 * leg).setZero();
       out->qdd.segment<3>(3 * leg).setZero();
     }
-    // a lowered foot carries weight once it is down
+    // a lowered foot carries weight once it is down, taking over as a landed trot foot does
     out->stance[l] = on_ground_[l] || t >= lower_s_;
+    out->takeover[l] = on_ground_[l] ? 1.0 : std::clamp((t - lower_s_) / kTakeoverS, 0.0, 1.0);
   }
   last_q_ = out->q;
   last_p_B_ = p_B;

@@ -38,6 +38,8 @@ class PostureMove {
   bool Sample(double t, JointReference* out) noexcept;
 
   double duration_s() const noexcept { return duration_s_; }
+  /// The foot stood on the ground when the move began (else it is lowered onto it).
+  bool starts_on_ground(std::size_t f) const noexcept { return on_ground_[f]; }
   double start_height_m() const noexcept { return h0_m_; }
   /// The base position of the last Sample, in the move's frame (origin under the base at the
   /// start, axes of the base's heading).

@@ -371,7 +371,7 @@ void Reference::FollowContact(int leg, double t, double n, double frac, const Fo
   const auto l = static_cast<std::size_t>(leg);
   const double freq = trot_.step_frequency_Hz, D = trot_.duty_factor;
   LegContact& lc = contact_[l];
-  const double prob = c.speed_m_s[l] <= td.still_speed_m_s ? c.probability[l] : 0.0;
+  const double prob = c.vertical_speed_m_s[l] <= td.still_speed_m_s ? c.probability[l] : 0.0;
   const auto hold = [&](FootPhase phase) {
     f->stance = true;
     f->phase = phase;

@@ -67,8 +67,8 @@ struct FootReference {
 /// reference base, at the height the measured base pose and joints put it (so that an error of
 /// the trunk's height is not latched into the footholds).
 struct FootContacts {
-  std::array<double, kNumFeet> probability{};  // P(contact) from each foot's load
-  std::array<double, kNumFeet> speed_m_s{};    // each foot's contact point's speed
+  std::array<double, kNumFeet> probability{};  // P(contact) from each foot's ground force
+  std::array<double, kNumFeet> vertical_speed_m_s{};  // each foot's contact point's |v_z|
   dynamics::VectorJ q = dynamics::VectorJ::Zero();        // measured joint angles
   double base_height_m = 0.0;                             // estimated base position z, world
   Eigen::Matrix3d R_WB = Eigen::Matrix3d::Identity();     // estimated base orientation
@@ -88,17 +88,17 @@ struct TouchdownParams {
   // The schedule is the prior of the load's evidence (Bledt et al., "Contact Model Fusion for
   // Event-Based Locomotion in Unstructured Terrains", ICRA 2018): a swing foot is down only on
   // firm evidence, a foot whose stance is due on weaker evidence ...
-  double landing_probability = 0.5;
-  double due_probability = 0.1;
-  // ... and a foot whose stance is due is taken as down for this long before it counts as late:
-  // the load builds up only once the stance pushes (measured: 15-30 ms on flat ground)
-  double grace_s = 0.03;
-  // and a foot is down only if its contact point is nearly still: the load is read from the
-  // joint torques, and a foot in the air that its leg pushes down reads as loaded
+  double landing_probability = 0.9;
+  double due_probability = 0.5;
+  // ... and a foot whose stance is due is taken as down for this long before it counts as late
+  // (in the stance set in the air: the ID would push it down as if it carried its share)
+  double grace_s = 0.0;
+  // and a foot is down only if its contact point is not moving up or down (it may slide: on ice
+  // a loaded foot does): an impact's force fades through the observer while the foot rebounds
   double still_speed_m_s = 0.3;
   double reach_speed_m_s = 0.2;    // a late foot reaches down at this speed ...
-  double reach_ramp_s = 0.02;      // ... reached from rest over this time ...
-  double reach_depth_m = 0.10;     // ... down to this far below its foothold at most
+  double reach_ramp_s = 0.05;      // ... reached from rest over this time ...
+  double reach_depth_m = 0.06;     // ... down to this far below its foothold at most
   double load_ramp_s = 0.03;       // a landed foot's takeover rises from 0 to 1 over this time
 
   template <class A>
@@ -114,7 +114,7 @@ struct TouchdownParams {
     a->Visit(hal::Key("grace_s", &grace_s).In(0.0, 0.2).Unit("s")
                  .Doc("a foot whose stance is due counts as down this long before it is late"));
     a->Visit(hal::Key("still_speed_m_s", &still_speed_m_s).In(0.01, 5.0).Unit("m/s")
-                 .Doc("a foot is down only when its contact point is slower than this"));
+                 .Doc("a foot is down only when its contact point's |v_z| is below this"));
     a->Visit(hal::Key("reach_speed_m_s", &reach_speed_m_s).In(0.01, 1.0).Unit("m/s")
                  .Doc("a foot not down when its stance is due reaches down at this speed ..."));
     a->Visit(hal::Key("reach_ramp_s", &reach_ramp_s).In(0.001, 1.0).Unit("s")
@@ -164,6 +164,14 @@ struct TrotParams {
     a->Visit("touchdown", &touchdown);
   }
 };
+
+/// A set-velocity command applied at a reference time (a scripted steering for experiments and
+/// tests: Reference::SetVelocity at t_s of the reference's clock).
+struct TimedVelocity {
+  double t_s = 0.0;
+  double vx_m_s = 0.0, vy_m_s = 0.0, wz_rad_s = 0.0;
+};
+inline constexpr std::size_t kMaxTimedVelocities = 8;
 
 /// One axis of the commanded base velocity: a cubic Hermite ramp from (v0, a0) at t0 to v1
 /// (zero acceleration) at t0 + T, then v1. Velocity and acceleration are continuous, so q̈_ref is.

@@ -5,18 +5,21 @@
 namespace hyq::servo {
 ControlPipeline::ControlPipeline(const dynamics::Model& model, const ControllerConfig& controller,
                                  const FrictionEstimatorConfig& friction,
-                                 const DisturbanceObserverConfig& disturbance, double period_s)
+                                 const DisturbanceObserverConfig& disturbance, double period_s,
+                                 const FootForceObserverConfig& feet)
     : model_(model),
       dt_(period_s),
       friction_enabled_(friction.enabled),
       disturbance_enabled_(disturbance.enabled),
       controller_(model, controller),
       friction_(friction),
-      disturbance_(model, disturbance, period_s) {}
+      disturbance_(model, disturbance, period_s),
+      feet_(model, feet, period_s) {}
 
 void ControlPipeline::Reset() noexcept {
   controller_.Reset();
   disturbance_.Reset();
+  feet_.Reset();
 }
 
 void ControlPipeline::HoldEnvironment(const ContactEnvironment& mu_ceiling) noexcept {
@@ -33,6 +36,7 @@ IdStatus ControlPipeline::Compute(const dynamics::CycleDynamics& dyn, const Vect
                                   const JointReference& ref, const ContactEnvironment& mu_ceiling,
                                   IdOutput* out) noexcept {
   env_ = mu_ceiling;
+  feet_.Update(dyn, v, tau_measured_Nm);
   if (friction_enabled_) EstimateFriction(dyn, v, tau_measured_Nm, stance, slip_evidence, mu_ceiling);
   // the observer's trunk wrench corrects the model's h for the controller only (h − d_b), after
   // the friction estimate took its forces from the nominal h

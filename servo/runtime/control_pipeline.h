@@ -1,6 +1,6 @@
 // The control stages of one cycle, in the order both the daemon (servo_loop.h) and the simulated
 // experiment (tools/experiment/experiment.h) run them:
-//   friction estimate → disturbance observer → controller
+//   feet's force observer → friction estimate → disturbance observer → controller
 // The friction estimator (friction_estimator.h) gives Stage I a μ per foot at or below the
 // ceilings it is handed (the configured, commanded or true μ); the disturbance observer
 // (disturbance_observer.h) estimates the trunk's wrench the model does not explain, and the
@@ -16,6 +16,7 @@
 #include "servo/common/servo_types.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/disturbance_observer.h"
+#include "servo/estimation/foot_force_observer.h"
 #include "servo/estimation/friction_estimator.h"
 
 namespace hyq::servo {
@@ -27,7 +28,8 @@ class ControlPipeline {
   /// `disturbance.enabled`.
   ControlPipeline(const dynamics::Model& model, const ControllerConfig& controller,
                   const FrictionEstimatorConfig& friction,
-                  const DisturbanceObserverConfig& disturbance, double period_s);
+                  const DisturbanceObserverConfig& disturbance, double period_s,
+                  const FootForceObserverConfig& feet = {});
 
   /// One cycle at the measured state: `dyn` = ComputeCycleDynamics(model, q, v) (kOk),
   /// `tau_measured_Nm` the load cells' joint torques, `stance` the feet taken as loaded for the
@@ -38,6 +40,13 @@ class ControlPipeline {
                    const VectorJ& tau_measured_Nm, const std::array<bool, kNumFeet>& stance,
                    const std::array<bool, kNumFeet>& slip_evidence, const JointReference& ref, const ContactEnvironment& mu_ceiling,
                    IdOutput* out) noexcept;
+
+  /// The feet's force observer alone, for a cycle without control that still needs to know
+  /// which feet carry load (the sit-down's damping).
+  void ObserveFeet(const dynamics::CycleDynamics& dyn, const VectorV& v,
+                   const VectorJ& tau_measured_Nm) noexcept {
+    feet_.Update(dyn, v, tau_measured_Nm);
+  }
 
   /// A cycle without control (not ACTIVE, or its inputs failed their checks): the μ the
   /// controller would get stays the ceiling, or the last estimate below it.
@@ -52,6 +61,9 @@ class ControlPipeline {
   const Controller& controller() const noexcept { return controller_; }
   const FrictionEstimator& friction() const noexcept { return friction_; }
   const DisturbanceObserver& disturbance() const noexcept { return disturbance_; }
+  /// The feet's ground forces and contact probabilities (foot_force_observer.h), run in every
+  /// Compute: what the gait's contact-aware phases follow.
+  const FootForceObserver& feet() const noexcept { return feet_; }
 
  private:
   void EstimateFriction(const dynamics::CycleDynamics& dyn, const VectorV& v,
@@ -65,6 +77,7 @@ class ControlPipeline {
   Controller controller_;
   FrictionEstimator friction_;
   DisturbanceObserver disturbance_;
+  FootForceObserver feet_;
   ContactEnvironment env_;
 };
 

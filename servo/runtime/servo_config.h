@@ -14,6 +14,7 @@
 #include "servo/command/command_config.h"
 #include "servo/control/controller.h"
 #include "servo/estimation/disturbance_observer.h"
+#include "servo/estimation/foot_force_observer.h"
 #include "servo/estimation/estimator.h"
 #include "servo/estimation/friction_estimator.h"
 #include "servo/reference/reference.h"
@@ -59,6 +60,7 @@ struct ServoConfig {
   std::array<double, kNumFeet> mu{0.6, 0.6, 0.6, 0.6};  // the upper bound with the estimator on
   FrictionEstimatorConfig friction;     // contact.friction_estimation
   DisturbanceObserverConfig disturbance;  // controller.disturbance_observer
+  FootForceObserverConfig foot_force;     // contact.foot_force_observer
   Reference::Kind reference = Reference::Kind::kStand;
   TrotParams trot;
   FigureEightParams figure_eight;
@@ -70,11 +72,15 @@ struct ServoConfig {
   double sit_down_s = 0.0;              // a controlled stop or disable: down to the crouch first
   double crouch_height_m = 0.36;        // base height of the crouch the robot sits down to
   double sit_damping_Nms_per_rad = 80.0;  // the damping after a sit-down (a fault's: safety.*)
+  double sit_damping_light_fraction = 0.1;  // of it on a leg whose foot carries nothing
   // ... lasts until every joint has been slower than this for 0.2 s (the robot rests on the
   // ground: torque off before that would drop it), at least safety.damping_duration_s
   double sit_settle_speed_rad_s = 0.05;
   double sit_damping_max_s = 5.0;       // ... and at most this long
   double duration_s = 0.0;              // ACTIVE time after which the daemon stops; 0 = never
+  // scripted steering of the trot (hyq-servod --steer; not a configuration key: an experiment's)
+  std::array<TimedVelocity, kMaxTimedVelocities> steer{};
+  std::size_t steer_count = 0;
   RealtimeConfig realtime;
   DeadlineConfig deadline;
   SafetyLimits safety;
@@ -123,6 +129,7 @@ struct ServoConfig {
       s->Visit(hal::Key("mu", &mu).In(0.0, 2.0).Broadcast().Elements("(lf, rf, lh, rh)")
                    .Doc("the friction coefficient the controller assumes (the estimator's upper bound)"));
       s->Visit("friction_estimation", &friction);
+      s->Visit("foot_force_observer", &foot_force);
     });
     a->Section("reference", [this](auto* s) {
       s->Visit(hal::Key("kind", &reference)
@@ -145,6 +152,8 @@ struct ServoConfig {
                    .Doc("base height of that crouch"));
       s->Visit(hal::Key("sit_damping_Nms_per_rad", &sit_damping_Nms_per_rad).In(0.0, kMaxKdTau)
                    .Unit("N·m·s/rad").Doc("then damping, the legs folding under the trunk ..."));
+      s->Visit(hal::Key("sit_damping_light_fraction", &sit_damping_light_fraction).In(0.0, 1.0)
+                   .Doc("... that much of it on a leg whose foot carries nothing (the feet's force observer) ..."));
       s->Visit(hal::Key("sit_settle_speed_rad_s", &sit_settle_speed_rad_s).In(0.001, 1.0)
                    .Unit("rad/s").Doc("... until every joint is slower than this for 0.2 s ..."));
       s->Visit(hal::Key("sit_damping_max_s", &sit_damping_max_s).In(0.0, 60.0).Unit("s")

@@ -35,7 +35,9 @@ MotionConfig MakeMotionConfig(const ServoConfig& c) {
           .enable_ramp_s = c.enable_ramp_s,
           .duration_s = c.duration_s,
           .settle_speed_rad_s = c.sit_settle_speed_rad_s,
-          .settle_max_s = c.sit_damping_max_s};
+          .settle_max_s = c.sit_damping_max_s,
+          .steer = c.steer,
+          .steer_count = c.steer_count};
 }
 
 Reference MakeReference(const ServoConfig& c, const dynamics::Model& m) {
@@ -79,7 +81,7 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
       reference_(std::make_unique<Reference>(MakeReference(config, model))),
       pipeline_(std::make_unique<ControlPipeline>(model, ForClock(config.controller, config.clock),
                                                   config.friction, config.disturbance,
-                                                  config.period_s())),
+                                                  config.period_s(), config.foot_force)),
       dyn_(std::make_unique<dynamics::CycleDynamics>()),
       base_gains_(config.controller.feedback),
       command_port_({&safety_, &pipeline_->controller(), &env_, &base_gains_,
@@ -219,11 +221,12 @@ void ServoLoop::EnterActive() noexcept {
 
 // the motion phase's reference (outside ACTIVE it holds still)
 void ServoLoop::SampleReference() noexcept {
-  // the contact-aware gait follows the estimator's contact detection (reference.h)
+  // the contact-aware gait follows the feet's ground forces (the last cycle's momentum observer:
+  // foot_force_observer.h) and the estimator's kinematics (reference.h)
   const VectorQ& q = estimator_.q();
   for (std::size_t f = 0; f < kNumFeet; ++f) {
-    contacts_.probability[f] = estimator_.feet()[f].contact_probability;
-    contacts_.speed_m_s[f] = estimator_.feet()[f].point_velocity_W.norm();
+    contacts_.probability[f] = pipeline_->feet().probability()[f];
+    contacts_.vertical_speed_m_s[f] = std::abs(estimator_.feet()[f].point_velocity_W.z());
   }
   contacts_.q = q.tail<kNumJoints>();
   contacts_.base_height_m = q(2);
@@ -238,6 +241,7 @@ void ServoLoop::RunController() noexcept {
   tau_.setZero();
   // outside ACTIVE the μ shown is the command's (or the last estimate below it)
   pipeline_->HoldEnvironment(env_);
+  if (safety_.mode() == ServoMode::kDamping && sequencer_.settling()) return ObserveFeet();
   if (safety_.mode() != ServoMode::kActive) return;
   if (const Fault f = CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) {
     safety_.Report(f);
@@ -268,15 +272,45 @@ void ServoLoop::RunController() noexcept {
   tau_ = out_.tau_Nm;
 }
 
+// after a sit-down, which feet still carry the trunk (the feet's force observer; outside ACTIVE
+// the controller does not run it): a settling cycle whose estimate fails takes every foot as
+// loaded
+void ServoLoop::ObserveFeet() noexcept {
+  feet_known_ = false;
+  if (CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) return;
+  const VectorQ& q = estimator_.q();
+  const VectorV& v = estimator_.v();
+  if (dynamics::ComputeCycleDynamics(model_, q, v, dyn_.get()) != dynamics::DynamicsStatus::kOk) return;
+  VectorJ tau_m;
+  const auto& joints = hal_.image().joints;
+  for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+  pipeline_->ObserveFeet(*dyn_, v, tau_m);
+  feet_known_ = true;
+}
+
 void ServoLoop::Damping() noexcept {
   // after a sit-down the legs fold onto their stops under the sit-down's damping
-  // (motion_sequencer.h, SETTLE); a fault's damping stays as configured (safety.*)
-  const double D = sequencer_.settling() ? config_.sit_damping_Nms_per_rad
-                                         : config_.safety.damping_Nms_per_rad;
+  // (motion_sequencer.h, SETTLE), on the legs whose feet still carry the trunk; a leg whose foot
+  // is off the ground is light, and the damping that slows a loaded leg's fold rings it behind
+  // the actuator's lag and the loop's delay (docs/tuning.md, "Loop model"): it gets
+  // sit_damping_light_fraction of it; so does a leg whose foot moves up or down (a foot that
+  // hammers the ground or its leg's stop: the damping behind the same lag drives it).
+  // A fault's damping stays as configured (safety.*).
+  const bool settling = sequencer_.settling();
+  const double D = settling ? config_.sit_damping_Nms_per_rad : config_.safety.damping_Nms_per_rad;
+  const double light = config_.sit_damping_light_fraction;
   for (int j = 0; j < kNumJoints; ++j) {
     const auto& in = hal_.image().joints[static_cast<std::size_t>(j)];
     const bool ok = in.valid() && std::isfinite(in.velocity_rad_s);
-    tau_(j) = ok ? -D * in.velocity_rad_s : 0.0;
+    double scale = 1.0;
+    if (settling) {
+      const auto leg = static_cast<std::size_t>(j / dynamics::kJointsPerLeg);
+      const bool still = std::abs(estimator_.feet()[leg].point_velocity_W.z()) <=
+                         config_.trot.touchdown.still_speed_m_s;
+      const double loaded = !feet_known_ ? 1.0 : still ? pipeline_->feet().probability()[leg] : 0.0;
+      scale = light + (1.0 - light) * loaded;
+    }
+    tau_(j) = ok ? -D * scale * in.velocity_rad_s : 0.0;
   }
 }
 
@@ -436,6 +470,10 @@ void ServoLoop::FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalSta
                                                 imp.tangent_Ns_W) / dt_)
                              : Eigen::Vector3d::Zero();
     for (int i = 0; i < 3; ++i) c.contact_force_N[f][i] = F(i);
+    const Eigen::Vector3d& G = pipeline_->feet().force_W()[f];
+    for (int i = 0; i < 3; ++i) c.ground_force_N[f][i] = G(i);
+    c.landed_probability[f] = contacts_.probability[f];
+    c.gait_phase[f] = static_cast<std::int8_t>(ref_.feet[f].phase);
     const FootFriction& fr = pipeline_->friction().feet()[f];
     fe.mu_estimate[f] = fr.mu;
     fe.mu_control[f] = pipeline_->environment().mu[f];

@@ -150,6 +150,7 @@ class ServoLoop {
   MotionInputs MotionNow() const noexcept;
   void Relay(const MotionRequests& r) noexcept;
   void EnterActive() noexcept;
+  void ObserveFeet() noexcept;
   void Damping() noexcept;
   void FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept;
   void DrainEvents() noexcept;
@@ -177,6 +178,7 @@ class ServoLoop {
   ReferenceSample ref_;
   JointReference joint_ref_;  // the phase's: the enable ramp, the stand-up or the sit-down
   FootContacts contacts_;     // the estimator's, for the reference's contact-aware phases
+  bool feet_known_ = false;   // this settling cycle's feet observer ran (ObserveFeet)
   MotionSequencer sequencer_;  // writes ref_ and joint_ref_
   IdOutput out_;
   IdStatus id_status_ = IdStatus::kOk;

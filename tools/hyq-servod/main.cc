@@ -47,6 +47,7 @@ struct Options {
   std::map<std::string, std::string> interfaces;
   std::optional<std::string> clock, controller, reference, lcm_url, command_key;
   std::optional<double> duration;
+  std::vector<hyq::servo::TimedVelocity> steer;
   std::optional<std::array<double, 4>> mu;
   bool auto_enable = false, no_telemetry = false, commands = false;
   std::string summary;
@@ -69,6 +70,9 @@ default), checks everything (safety) and writes the joint torques; LCM telemetry
   --reference KIND       stand, trot or figure_eight
   --mu M | --mu A,B,C,D  friction coefficient the controller assumes (all feet / lf,rf,lh,rh)
   --duration S           stop after S seconds in ACTIVE (0: run until SIGINT/SIGTERM)
+  --steer T:VX,VY,WZ     steer the trot at T s of the reference's time (after the stand-up) to
+                         VX, VY m/s and WZ rad/s, as a set-velocity command would (repeatable,
+                         at most 8, in increasing T; docs/steering.md)
   --auto-enable          go from STANDBY to ACTIVE without an operator command
   --commands             open the LCM command channel (off unless configured or given); it
                          takes only commands signed with the robot's key (docs/security.md)
@@ -117,6 +121,21 @@ Options Parse(hyq::cli::CommandLine& cl) {
         cl.BadValue("stand, trot or figure_eight", *o.reference);
     } else if (cl.Flag("--duration")) {
       o.duration = cl.Number(0.0, 1e7);
+    } else if (cl.Flag("--steer")) {
+      const std::string v = cl.Value();
+      const std::vector<std::string> tv = hyq::cli::Split(v, ':');
+      if (tv.size() != 2) cl.BadValue("T:VX,VY,WZ (e.g. 3:0.3,0,0.2)", v);
+      const std::vector<std::string> vel = hyq::cli::Split(tv[1], ',');
+      if (vel.size() != 3) cl.BadValue("T:VX,VY,WZ with three velocities", v);
+      hyq::servo::TimedVelocity s{cl.NumberOf("--steer", tv[0], 0.0, 1e7),
+                                  cl.NumberOf("--steer", vel[0], -10.0, 10.0),
+                                  cl.NumberOf("--steer", vel[1], -10.0, 10.0),
+                                  cl.NumberOf("--steer", vel[2], -10.0, 10.0)};
+      if (o.steer.size() >= hyq::servo::kMaxTimedVelocities)
+        cl.BadValue("at most 8 --steer commands", v);
+      if (!o.steer.empty() && s.t_s < o.steer.back().t_s)
+        cl.BadValue("a time no earlier than the previous --steer's", v);
+      o.steer.push_back(s);
     } else if (cl.Flag("--mu")) {
       const std::string v = cl.Value();
       const std::vector<std::string> parts = hyq::cli::Split(v, ',');
@@ -162,6 +181,8 @@ void Override(const hyq::cli::CommandLine& cl, const Options& o, hyq::servo::Ser
                   : *o.reference == "figure_eight" ? hyq::servo::Reference::Kind::kFigureEight
                                                    : hyq::servo::Reference::Kind::kStand;
   if (o.duration) c.duration_s = *o.duration;
+  for (std::size_t i = 0; i < o.steer.size(); ++i) c.steer[i] = o.steer[i];
+  if (!o.steer.empty()) c.steer_count = o.steer.size();
   if (o.mu) c.mu = *o.mu;
   if (o.auto_enable) c.auto_enable = true;
   if (o.commands) c.commands.enabled = true;
