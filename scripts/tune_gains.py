@@ -125,8 +125,9 @@ def gains_yaml(ctrl, g):
     return "\n".join(lines) + "\n"
 
 
-def shipped_sim_config(extra):
-    """config/hyq_servo_sim.yaml with absolute paths and the gains of `extra` merged in."""
+def shipped_sim_config(build_dir, extra):
+    """config/hyq_servo_sim.yaml with absolute paths and the gains of `extra` merged in (the
+    build tree does not change it: the signature scripts/baseline_experiments.py calls)."""
     src = open(os.path.join(HERE, "config", "hyq_servo_sim.yaml")).read()
     src = re.sub(r"^  urdf: .*$", f"  urdf: {HERE}/config/robots/hyq.urdf", src, flags=re.M)
     src = re.sub(r"^  hal: .*$", f"  hal: {HERE}/config/hyq_hal.yaml", src, flags=re.M)
@@ -181,7 +182,7 @@ class Tuner:
         os.makedirs(d, exist_ok=True)
         cfg = os.path.join(d, "servo.yaml")
         with open(cfg, "w") as f:
-            f.write(shipped_sim_config(gains_yaml(ctrl, g)))
+            f.write(shipped_sim_config(self.a.build, gains_yaml(ctrl, g)))
         sim = [x.replace("{seed}", str(seed)) for x in plant_args] + ["--seed", str(seed)]
         r = hyq_runs.run(d, ctrl, build=self.a.build, reference=hyq_runs.REFERENCES[reference],
                          steer=hyq_runs.STEER if reference == "steer" else (), mu=MU,
@@ -212,6 +213,36 @@ class Tuner:
                 "runs": runs, "margin": m}
 
 
+def shipped_gains(ctrl):
+    """The gains config/hyq_servo_sim.yaml ships for `ctrl`, as a candidate."""
+    import yaml
+    g = yaml.safe_load(open(os.path.join(HERE, "config", "hyq_servo_sim.yaml")))["controller"]["gains"]
+    kp, kd, sw = KEYS[ctrl]
+    three = lambda v: [float(x) for x in v] if isinstance(v, list) else [float(v)] * 3
+    c = {"kp": three(g.get(kp, 0.0)), "kd": three(g.get(kd, 0.0)), "swing": float(g.get(sw, 1.0))}
+    if ctrl == "pid":
+        c["ki"] = float(g.get("pid_ki", 0.0))
+    if ctrl in ("two_stage", "noslip") and float(g.get("kd_acc", 0.0)) > 0:
+        c["kd_acc"] = float(g["kd_acc"])
+    return c
+
+
+def check(a, tuner, ctrls):
+    """The rule on the shipped gains: DIR/check.json; exit 1 when one controller's fail it."""
+    out, bad = {}, []
+    for ctrl in ctrls:
+        g = shipped_gains(ctrl)
+        r = tuner.evaluate(ctrl, 99, g)
+        out[ctrl] = {"gains": g, **r}
+        print(f"{ctrl} {describe(g)}: " + (f"counts: error {r['error']:.4f} rad, peak {r['peak_rad_s']:.1f} rad/s"
+                                           if r["counts"] else f"does not count: {r['why']}"), flush=True)
+        if not r["counts"]:
+            bad.append(ctrl)
+    json.dump(out, open(os.path.join(a.out, "check.json"), "w"), indent=1)
+    print(f"tune_gains.py: {tuner.runs} runs; {a.out}/check.json")
+    return 1 if bad else 0
+
+
 def describe(g):
     t = (f"kp [{', '.join(f'{v:g}' for v in g['kp'])}], kd [{', '.join(f'{v:g}' for v in g['kd'])}], "
          f"swing {g['swing']:g}")
@@ -232,6 +263,8 @@ def main():
     ap.add_argument("--seeds", default="1,2,3", help="hyq-sim seeds (default 1,2,3)")
     ap.add_argument("--duration", type=float, default=20.0, help="reference seconds per run (default 20)")
     ap.add_argument("--quick", action="store_true", help="one seed, the trot only: a screening")
+    ap.add_argument("--check", action="store_true",
+                    help="no search: the rule on the gains config/hyq_servo_sim.yaml ships (exit 1 if they fail it)")
     ap.add_argument("--write-config", action="store_true",
                     help="write the chosen gains into config/hyq_servo_sim.yaml and config/hyq_servo.yaml")
     ap.add_argument("--build", default=hyq_runs.DEFAULT_BUILD, help="build tree (default build/ci)")
@@ -253,6 +286,8 @@ def main():
     hyq_runs.require_tools(a.build, ["hyq-sim", "hyq-servod"], "tune_gains.py")
     os.makedirs(a.out, exist_ok=True)
     tuner = Tuner(a)
+    if a.check:
+        return check(a, tuner, ctrls)
     results = {"rule": {"mu": MU, "duration_s": a.duration, "seeds": a.seeds, "plants": DELAYED,
                         "maneuvers": MANEUVERS, "steer": hyq_runs.STEER, "peak_limit_rad_s": PEAK_LIMIT,
                         "margin": MARGIN, "quick": a.quick},
@@ -300,4 +335,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    raise SystemExit(main())

@@ -5,6 +5,8 @@
 namespace hyq::servo {
 namespace {
 
+constexpr double kMinRampedMu = 0.02;  // a landing foot's μ below this: frictionless (0)
+
 TwoStageSettings Stage1Only(TwoStageSettings s) {
   s.stage2 = false;
   return s;
@@ -88,9 +90,17 @@ IdStatus Controller::ComputeWithBias(const dynamics::CycleDynamics& dyn, const d
   input_.stance = ref.stance;
   // a newly landed foot's μ rises with its takeover: Stage I is still eqs 10–30 with a valid
   // Coulomb cone per foot, so the torque stays the exact inverse of a contact model (a bound on
-  // the normal impulse instead would break eq 28: docs/inverse_dynamics.md, "Touchdown")
-  for (std::size_t f = 0; f < kNumFeet; ++f)
-    input_.mu[f] = ref.stance[f] ? env.mu[f] * std::clamp(ref.takeover[f], 0.0, 1.0) : env.mu[f];
+  // the normal impulse instead would break eq 28: docs/servo.md, "Contact-aware gait"). Below
+  // kMinRampedMu the foot is frictionless outright: a cone of μ ≈ 0 has nearly dependent rows,
+  // which cost the QP its iteration limit
+  for (std::size_t f = 0; f < kNumFeet; ++f) {
+    if (!ref.stance[f]) {
+      input_.mu[f] = env.mu[f];
+      continue;
+    }
+    const double mu = env.mu[f] * std::clamp(ref.friction_takeover[f], 0.0, 1.0);
+    input_.mu[f] = mu < std::min(kMinRampedMu, env.mu[f]) ? 0.0 : mu;
+  }
   input_.normal_W = env.normal_W;
   input_.dt = config_.id.horizon_s > 0.0 ? config_.id.horizon_s : dt;
   IdStatus st = IdStatus::kBadInput;

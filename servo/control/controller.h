@@ -92,10 +92,12 @@ struct JointReference {
   dynamics::VectorJ qdd = dynamics::VectorJ::Zero();
   std::array<bool, kNumFeet> stance{true, true, true, true};
   /// How far a stance foot has taken over (0 at its touchdown, 1 once the reference's load ramp
-  /// has passed; servo/reference/reference.h, TouchdownParams::load_ramp_s): the ID kinds give
-  /// the foot this fraction of its μ in Stage I, and every controller blends the leg's feedback
-  /// gains from the swing scale to 1 by it. A swing foot's value is not used.
+  /// has passed; servo/reference/reference.h, TouchdownParams::load_ramp_s): every controller
+  /// blends the leg's feedback gains from the swing scale to 1 by it. A swing foot's is not used.
   std::array<double, kNumFeet> takeover{1.0, 1.0, 1.0, 1.0};
+  /// The same over TouchdownParams::mu_ramp_s: the ID kinds give the foot this fraction of its μ
+  /// in Stage I.
+  std::array<double, kNumFeet> friction_takeover{1.0, 1.0, 1.0, 1.0};
 };
 
 struct ContactEnvironment {

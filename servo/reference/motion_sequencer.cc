@@ -1,5 +1,6 @@
 #include "servo/reference/motion_sequencer.h"
 
+#include <algorithm>
 #include <cmath>
 
 namespace hyq::servo {
@@ -55,11 +56,15 @@ struct MotionPhaseTable {
     // sitting down, a foot being lowered is a stance foot once it is on the ground, not when
     // its lowering's clock ends: short of the ground the IDs would push it down through the air
     // as if it carried its share (the feet that stood when the sit-down began stay in the
-    // stance set: the stand-up, too, needs its feet pushed before they carry anything)
+    // stance set, as the stand-up's do: their load follows the push). And a foot that carries
+    // nothing has its leg's gains where a landed trot foot starts them (JointReference::takeover):
+    // the stance gains ring a light leg behind the lag
     if (m.phase_ == MotionPhase::kSitDown && in.contacts != nullptr)
-      for (std::size_t f = 0; f < kNumFeet; ++f)
+      for (std::size_t f = 0; f < kNumFeet; ++f) {
         if (!m.posture_.starts_on_ground(f) && in.contacts->probability[f] < 0.5)
           m.joints_->stance[f] = false;
+        m.joints_->takeover[f] = std::min(m.joints_->takeover[f], in.contacts->probability[f]);
+      }
     return m.phase_;
   }
 

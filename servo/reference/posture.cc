@@ -106,6 +106,7 @@ bool PostureMove::Sample(double t, JointReference* out) noexcept {
     // a lowered foot carries weight once it is down, taking over as a landed trot foot does
     out->stance[l] = on_ground_[l] || t >= lower_s_;
     out->takeover[l] = on_ground_[l] ? 1.0 : std::clamp((t - lower_s_) / kTakeoverS, 0.0, 1.0);
+    out->friction_takeover[l] = 1.0;
   }
   last_q_ = out->q;
   last_p_B_ = p_B;

@@ -377,6 +377,7 @@ void Reference::FollowContact(int leg, double t, double n, double frac, const Fo
     f->phase = phase;
     f->p_W = lc.p_W;
     f->takeover = Takeover(t - lc.t0, td.load_ramp_s);
+    f->friction_takeover = Takeover(t - lc.t0, td.mu_ramp_s);
   };
   if (frac < D) {  // the stance of cycle n is due
     const double due = trot_.start_delay_s + (n - kTrotOffset[l]) / freq;
@@ -455,6 +456,7 @@ void Reference::SolveJoints(ReferenceSample* out) noexcept {
     out->joints.qdd.segment<3>(3 * leg) = j.qdd;
     out->joints.stance[leg] = f.stance;
     out->joints.takeover[leg] = f.takeover;
+    out->joints.friction_takeover[leg] = f.friction_takeover;
   }
   last_q_ = out->joints.q;
 }

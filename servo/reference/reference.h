@@ -59,7 +59,8 @@ struct FootReference {
   Eigen::Vector3d a_W = Eigen::Vector3d::Zero();
   bool stance = true;
   FootPhase phase = FootPhase::kStance;
-  double takeover = 1.0;  // JointReference::takeover
+  double takeover = 1.0;           // JointReference::takeover
+  double friction_takeover = 1.0;  // JointReference::friction_takeover
 };
 
 /// What the contact-aware gait is told each cycle (the state estimator's): which feet are down,
@@ -99,7 +100,11 @@ struct TouchdownParams {
   double reach_speed_m_s = 0.2;    // a late foot reaches down at this speed ...
   double reach_ramp_s = 0.05;      // ... reached from rest over this time ...
   double reach_depth_m = 0.06;     // ... down to this far below its foothold at most
-  double load_ramp_s = 0.03;       // a landed foot's takeover rises from 0 to 1 over this time
+  double load_ramp_s = 0.03;       // a landed foot's gains rise from the swing's over this time ...
+  // ... and its μ from 0 over this one. Off (0) as shipped: each cycle of the ramp is a Stage I
+  // QP with a nearly flat cone, which ran out of its time budget (the 20 s trot: 6 fallbacks
+  // with 2 ms, 12 with 5 ms, 221 with 30 ms, none without)
+  double mu_ramp_s = 0.0;
 
   template <class A>
   void Serialize(A* a) {
@@ -122,7 +127,9 @@ struct TouchdownParams {
     a->Visit(hal::Key("reach_depth_m", &reach_depth_m).In(0.0, 0.2).Unit("m")
                  .Doc("... to at most this far below its foothold"));
     a->Visit(hal::Key("load_ramp_s", &load_ramp_s).In(0.0, 0.5).Unit("s")
-                 .Doc("a landed foot's μ and stance gains rise over this time"));
+                 .Doc("a landed foot's leg takes the stance gains over this time ..."));
+    a->Visit(hal::Key("mu_ramp_s", &mu_ramp_s).In(0.0, 0.5).Unit("s")
+                 .Doc("... and its μ in Stage I rises from 0 over this one"));
   }
 };
 

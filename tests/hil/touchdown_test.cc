@@ -121,7 +121,10 @@ TouchdownRun Trot(const std::vector<sim::GroundBox>& boxes) {
     last_phase = phase;
   }
   for (const auto& e : rig.sink.events) {
-    out.events += std::string(servo::ToString(e.reason)) + " ";
+    out.events += std::string(servo::ToString(e.reason)) + "@" + std::to_string(e.cycle) + "[" +
+                  servo::ToString(e.from) + ">" + servo::ToString(e.to) + "]" +
+                  (e.reason == servo::EventReason::kOutOfRange ? std::string(" (") + e.detail.data() + ")" : "") +
+                  " ";
     if (e.to == servo::ServoMode::kDamping && e.reason != servo::EventReason::kStopRequest) out.fault = true;
     if (e.to == servo::ServoMode::kFault) out.fault = true;
   }
