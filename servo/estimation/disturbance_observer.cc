@@ -12,7 +12,7 @@ DisturbanceObserver::DisturbanceObserver(const dynamics::Model& model,
     : model_(model),
       config_(config),
       dt_(dt),
-      gain_((1.0 - std::exp(-2.0 * M_PI * config.bandwidth_hz * dt)) / dt) {}
+      gain_(MomentumObserverGain(config.bandwidth_hz, dt)) {}
 
 void DisturbanceObserver::Reset() noexcept {
   held_ = true;

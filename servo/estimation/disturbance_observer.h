@@ -60,6 +60,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 
 #include <Eigen/Dense>
 
@@ -68,6 +69,11 @@
 #include "hal/config_key.h"
 
 namespace hyq::servo {
+
+/// K_d of (3) for a pole at bandwidth_hz: the step response of K/(s + K) sampled exactly.
+inline double MomentumObserverGain(double bandwidth_hz, double dt) noexcept {
+  return (1.0 - std::exp(-2.0 * M_PI * bandwidth_hz * dt)) / dt;
+}
 
 struct DisturbanceObserverConfig {
   bool enabled = false;        // off: the controller uses the nominal model

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "dynamics/kinematics.h"
+#include "servo/estimation/disturbance_observer.h"
 
 namespace hyq::servo {
 
@@ -11,7 +12,7 @@ FootForceObserver::FootForceObserver(const dynamics::Model& model,
     : model_(model),
       config_(config),
       dt_(dt),
-      gain_((1.0 - std::exp(-2.0 * M_PI * config.bandwidth_hz * dt)) / dt) {
+      gain_(MomentumObserverGain(config.bandwidth_hz, dt)) {
   Reset();
 }
 

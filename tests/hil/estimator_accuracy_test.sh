@@ -8,9 +8,9 @@
 #
 # ideal_mu0.1, realistic_mu0.1, ideal_mu1.0: 10 s of trot (two-stage ID); over the trot the
 #   horizontal velocity error RMS <= 0.6 cm/s (ideal, mu 0.1) or 1.0 cm/s (the others), the
-#   largest <= 8 cm/s, the yaw drift <= 10 mrad; on the ideal plant at mu 1.0 also the rest after
-#   the stop <= 1 cm/s RMS (on mu 0.1 the damped robot slides on its belly and on the realistic
-#   plant its legs chatter against their stops: docs/estimation.md).
+#   largest <= 8 cm/s, the yaw drift <= 10 mrad; on the ideal plant at mu 1.0 also the settling
+#   after the stop <= 2 cm/s RMS (the legs fold under the trunk at up to 5 cm/s; on mu 0.1 the
+#   damped robot slides on its belly: docs/estimation.md).
 # stand_bias: 8 s of standing on the realistic plant: the gyro bias after 5 s of standing still
 #   within 20 % of the one hyq-sim drew.
 set -euo pipefail
@@ -29,7 +29,7 @@ case "$case" in
     "${acc[@]}" --max-trot-vel-rms 1.0 --max-trot-vel-max 8 --max-yaw-drift 10 ;;
   ideal_mu1.0)
     "${hil[@]}" --duration 10 --mu 1.0
-    "${acc[@]}" --max-trot-vel-rms 1.0 --max-trot-vel-max 8 --max-yaw-drift 10 --max-rest-vel-rms 1.0 ;;
+    "${acc[@]}" --max-trot-vel-rms 1.0 --max-trot-vel-max 8 --max-yaw-drift 10 --max-rest-vel-rms 2.0 ;;
   stand_bias)
     "${hil[@]}" --duration 8 --reference stand --sim-arg=--profile --sim-arg=realistic
     "${acc[@]}" --max-gyro-bias-error 20 ;;

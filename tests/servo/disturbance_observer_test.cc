@@ -18,6 +18,7 @@
 #include "dynamics/configuration.h"
 #include "dynamics/kinematics.h"
 #include "tests/dynamics/hyq_fixture.h"
+#include "tests/dynamics/rk4.h"
 #include "tests/support/no_heap_guard.h"
 
 namespace hyq::servo {
@@ -176,16 +177,7 @@ Flight Fly(const Vector6d& w, int cycles) {
     fl.q.push_back(q);
     fl.v.push_back(v);
     fl.tau.push_back(DriveTorque(q, v, t));
-    for (int i = 0; i < kSub; ++i) {
-      const double ti = t + i * h;
-      // RK4 on the manifold: q moves by Integrate with each stage's velocity
-      const VectorV k1v = v, k1a = vdot(q, v, ti);
-      const VectorV k2v = v + 0.5 * h * k1a, k2a = vdot(dynamics::Integrate(q, k1v, 0.5 * h), k2v, ti + 0.5 * h);
-      const VectorV k3v = v + 0.5 * h * k2a, k3a = vdot(dynamics::Integrate(q, k2v, 0.5 * h), k3v, ti + 0.5 * h);
-      const VectorV k4v = v + h * k3a, k4a = vdot(dynamics::Integrate(q, k3v, h), k4v, ti + h);
-      q = dynamics::Integrate(q, (k1v + 2.0 * k2v + 2.0 * k3v + k4v) / 6.0, h);
-      v += h * (k1a + 2.0 * k2a + 2.0 * k3a + k4a) / 6.0;
-    }
+    for (int i = 0; i < kSub; ++i) testing::Rk4Step(vdot, t + i * h, h, &q, &v);
   }
   return fl;
 }

@@ -15,6 +15,7 @@
 #include "dynamics/configuration.h"
 #include "dynamics/kinematics.h"
 #include "tests/dynamics/hyq_fixture.h"
+#include "tests/dynamics/rk4.h"
 #include "tests/support/no_heap_guard.h"
 
 namespace hyq::servo {
@@ -109,15 +110,7 @@ TEST(FootForceObserver, ALegPushingThroughTheAirIsNotLoaded) {
         ASSERT_LT(obs.probability()[ff], 0.01) << "foot " << f << " at cycle " << k;
       }
     }
-    for (int i = 0; i < kSub; ++i) {
-      const double ti = t + i * h;
-      const VectorV k1v = v, k1a = vdot(q, v, ti);
-      const VectorV k2v = v + 0.5 * h * k1a, k2a = vdot(dynamics::Integrate(q, k1v, 0.5 * h), k2v, ti + 0.5 * h);
-      const VectorV k3v = v + 0.5 * h * k2a, k3a = vdot(dynamics::Integrate(q, k2v, 0.5 * h), k3v, ti + 0.5 * h);
-      const VectorV k4v = v + h * k3a, k4a = vdot(dynamics::Integrate(q, k3v, h), k4v, ti + h);
-      q = dynamics::Integrate(q, (k1v + 2.0 * k2v + 2.0 * k3v + k4v) / 6.0, h);
-      v += h * (k1a + 2.0 * k2a + 2.0 * k3a + k4a) / 6.0;
-    }
+    for (int i = 0; i < kSub; ++i) testing::Rk4Step(vdot, t + i * h, h, &q, &v);
   }
   std::printf("in the air: observed |F| <= %.2f N, the torques' massless-leg reading up to %.0f N\n",
               worst_observed, worst_massless);
