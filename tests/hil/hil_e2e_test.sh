@@ -637,11 +637,19 @@ EOS
     grep -A1 "^  disturbance_observer:$" "$out/dob_servo.yaml" | grep -q "^    enabled: true$" || fail "could not switch the disturbance observer on in $out/dob_servo.yaml"
     for c in pid two_stage two_stage+dob; do
       c_cfg=$cfg; [[ $c == *+dob ]] && c_cfg=$out/dob_servo.yaml
-      "$here/scripts/hil.sh" --build "$build" --out "$out/$c" --duration 5 --controller "${c%+dob}" --quiet \
-        --no-logger --sim-arg --profile --sim-arg realistic \
-        --sim-arg --link-errors --sim-arg 1 --sim-arg --bias-seed --sim-arg 1 \
-        --servod-arg --config --servod-arg "$c_cfg"
-      rc=$?
+      # a bring-up that found a bus's boards silent (the run before still releasing its ports:
+      # seen once in CI, "no boot-up after NMT reset" on one bus) is the rig's, not the
+      # controller's: run again once, saying so
+      for attempt in 1 2; do
+        "$here/scripts/hil.sh" --build "$build" --out "$out/$c" --duration 5 --controller "${c%+dob}" --quiet \
+          --no-logger --sim-arg --profile --sim-arg realistic \
+          --sim-arg --link-errors --sim-arg 1 --sim-arg --bias-seed --sim-arg 1 \
+          --servod-arg --config --servod-arg "$c_cfg"
+        rc=$?
+        grep -q "bring-up failed" "$out/$c/servod.log" 2>/dev/null && ((attempt == 1)) || break
+        echo "hil_e2e_test: $c: the bring-up failed ($(grep -m1 'bring-up failed' "$out/$c/servod.log")); running it again"
+        sleep 1
+      done
       [[ $rc -eq 0 ]] || { tail -n 20 "$out/$c/servod.log"; fail "$c: hil.sh exit $rc (a fault or a fall on the realistic plant)"; }
       err[$c]=$("$py" -c "import json; print(json.load(open('$out/$c/servod.json'))['tracking_error_mean_rad'])")
     done
