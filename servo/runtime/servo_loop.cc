@@ -237,6 +237,14 @@ void ServoLoop::SampleReference() noexcept {
                              ToString(sequencer_.phase())));
 }
 
+// the load cells' joint torques of this cycle's process image
+VectorJ ServoLoop::MeasuredTorque() const noexcept {
+  VectorJ tau_m;
+  const auto& joints = hal_.image().joints;
+  for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+  return tau_m;
+}
+
 void ServoLoop::RunController() noexcept {
   tau_.setZero();
   // outside ACTIVE the μ shown is the command's (or the last estimate below it)
@@ -253,9 +261,7 @@ void ServoLoop::RunController() noexcept {
     safety_.Report(f);
     return;
   }
-  VectorJ tau_m;
-  const auto& joints = hal_.image().joints;
-  for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+  const VectorJ tau_m = MeasuredTorque();
   id_status_ = pipeline_->Compute(*dyn_, q, v, tau_m, estimator_.stance(), estimator_.slip_evidence(),
                                   joint_ref_, env_, &out_);
   if (out_.fallback != Fallback::kNone) ++stats_.controller_fallbacks;
@@ -281,9 +287,7 @@ void ServoLoop::ObserveFeet() noexcept {
   const VectorQ& q = estimator_.q();
   const VectorV& v = estimator_.v();
   if (dynamics::ComputeCycleDynamics(model_, q, v, dyn_.get()) != dynamics::DynamicsStatus::kOk) return;
-  VectorJ tau_m;
-  const auto& joints = hal_.image().joints;
-  for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+  const VectorJ tau_m = MeasuredTorque();
   pipeline_->ObserveFeet(*dyn_, v, tau_m);
   feet_known_ = true;
 }

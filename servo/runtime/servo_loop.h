@@ -150,6 +150,7 @@ class ServoLoop {
   MotionInputs MotionNow() const noexcept;
   void Relay(const MotionRequests& r) noexcept;
   void EnterActive() noexcept;
+  VectorJ MeasuredTorque() const noexcept;
   void ObserveFeet() noexcept;
   void Damping() noexcept;
   void FillSnapshot(std::int64_t now_ns, hal::HalStatus rs, hal::HalStatus ws) noexcept;
