@@ -107,7 +107,7 @@ struct DeviceRuntime {
 struct StateMachineTiming {
   std::int64_t state_timeout_ns = 500'000'000;
   std::int64_t heartbeat_timeout_ns = 350'000'000;
-  std::uint32_t max_held_cycles = 3;
+  std::uint32_t max_held_cycles = 5;
   std::uint32_t min_valid_cycles_for_op = 5;
 };
 StateMachineTiming MakeStateMachineTiming(const TimingConfig& t) noexcept;

@@ -50,6 +50,7 @@ Bus::Bus(BusConfig config, const TimingConfig& timing,
          const std::array<JointCalibration, kNumJoints>* calibration, CanChannel* channel)
     : config_(std::move(config)),
       timing_(MakeStateMachineTiming(timing)),
+      period_s_(timing.cycle_period_s),
       calibration_(calibration),
       channel_(channel),
       heartbeat_period_ns_(static_cast<std::int64_t>(timing.master_heartbeat_period_s * 1e9)) {
@@ -202,6 +203,10 @@ void Bus::Publish(const DeviceRuntime& d, ProcessImage* image) noexcept {
   j.device_state = d.state;
   if (!fresh) {
     ++j.age_cycles;
+    // held (docs/hal.md, "Late or missing answers"): the angle extrapolated by the last
+    // velocity, which a hydraulic joint keeps within the hold's few milliseconds
+    if (st == InputStatus::kHeld && std::isfinite(j.velocity_rad_s))
+      j.position_rad += j.velocity_rad_s * period_s_;
     return;
   }
   const JointCalibration& c = (*calibration_)[static_cast<std::size_t>(d.joint)];

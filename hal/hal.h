@@ -104,6 +104,7 @@ class Bus {
 
   BusConfig config_;
   StateMachineTiming timing_;
+  double period_s_;  // the SYNC period: a held position moves on by the last velocity per period
   const std::array<JointCalibration, kNumJoints>* calibration_;
   CanChannel* channel_;
   std::vector<DeviceRuntime> devices_;

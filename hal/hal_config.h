@@ -85,7 +85,7 @@ struct TimingConfig {
   /// device's last valid input is held, flagged InputStatus::kHeld and counted, for up to this
   /// many cycles in a row; the next missing one drops the device out of OP (SAFE-OP, latched)
   /// and is a safety fault (servo InputChecker reads the same value). 3 cycles = 3 ms at 1 kHz.
-  int max_held_cycles = 3;
+  int max_held_cycles = 5;
   int min_valid_cycles_for_op = 5;     // consecutive valid cycles in SAFE-OP before enabling
   /// The boards' own fault reaction (docs/can_protocol.md, "When the master goes silent"): a
   /// board in OPERATIONAL that gets no SYNC, or (outputs on) no set-point, for this long on its

@@ -15,8 +15,8 @@ namespace hyq::hal {
 enum class InputStatus : std::uint8_t {
   kValid,           // exactly one TPDO answering the last SYNC arrived this cycle
   kHeld,            // not received this cycle, within the hold limit (timing.max_held_cycles):
-                    // the values are the last valid ones, age_cycles old (docs/hal.md, "Late
-                    // or missing answers")
+                    // the values are the last valid ones, age_cycles old, a joint's angle
+                    // extrapolated by its last velocity (docs/hal.md, "Late or missing answers")
   kMissing,         // expected but not received for more than max_held_cycles in a row (values
                     // still the last valid ones; the device has left OP)
   kDuplicate,       // more than one TPDO for the same SYNC (values not updated)

@@ -14,6 +14,16 @@ const char* ToString(ServoMode m) noexcept {
   return "?";
 }
 
+const char* ToString(StopClass c) noexcept {
+  switch (c) {
+    case StopClass::kNone: return "none";
+    case StopClass::kControlled: return "controlled";
+    case StopClass::kDegraded: return "degraded";
+    case StopClass::kCut: return "cut";
+  }
+  return "?";
+}
+
 const char* ToString(EventReason r) noexcept {
   switch (r) {
     case EventReason::kNone: return "none";

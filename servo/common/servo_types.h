@@ -77,6 +77,43 @@ inline constexpr std::size_t kNumEventReasons = static_cast<std::size_t>(EventRe
 static_assert(kNumEventReasons <= 32, "SafetyStateMachine latches one bit per reason");
 const char* ToString(EventReason r) noexcept;
 
+/// How a fault stops the robot (servo/runtime/stop_class.h), after IEC 60204-1's stop categories:
+/// what the fault leaves the daemon decides it.
+enum class StopClass : std::uint8_t {
+  kNone,        // no stop (not a fault)
+  kControlled,  // control intact: the sit-down with the full controller, then damping (cat. 1)
+  kDegraded,    // one device lost: the sit-down without it, then damping (cat. 1)
+  kCut,         // a leg, two devices or the estimate lost: damping at once (cat. 0)
+};
+inline constexpr int kNumStopClasses = 4;
+/// "none", "controlled", "degraded", "cut".
+const char* ToString(StopClass c) noexcept;
+
+/// The inputs a fault's stop must do without (servo/runtime/stop_class.h), latched until the
+/// faults are acknowledged: the estimator, the motion sequencer and the controller leave them out.
+struct LostInputs {
+  std::array<bool, kNumJoints> joint{};
+  bool imu = false;
+  bool control = false;  // the estimate or the controller's torque
+  bool any() const noexcept {
+    for (bool j : joint)
+      if (j) return true;
+    return imu || control;
+  }
+  /// A joint of leg `l` (0..3: lf rf lh rh) is lost.
+  bool leg(int l) const noexcept {
+    for (int k = 0; k < hal::kJointsPerLeg; ++k)
+      if (joint[static_cast<std::size_t>(hal::kJointsPerLeg * l + k)]) return true;
+    return false;
+  }
+  int legs() const noexcept {  // legs with a lost joint
+    int n = 0;
+    for (int l = 0; l < hal::kNumLegs; ++l) n += leg(l) ? 1 : 0;
+    return n;
+  }
+  void Clear() noexcept { *this = LostInputs{}; }
+};
+
 struct SafetyEvent {
   std::uint64_t cycle = 0;
   std::int64_t time_ns = 0;   // CLOCK_MONOTONIC (or virtual time in lock-step)
@@ -85,6 +122,7 @@ struct SafetyEvent {
   EventReason reason = EventReason::kNone;
   std::int16_t joint = -1;    // the joint concerned, −1 when none
   std::int16_t bus = -1;      // the bus concerned, −1 when none
+  StopClass stop = StopClass::kNone;  // the stop this fault began or joined (faults only)
   std::array<char, kEventDetailSize> detail{};  // NUL-terminated human-readable detail
 };
 

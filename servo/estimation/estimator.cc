@@ -54,17 +54,30 @@ EstimatorStatus StateEstimator::Update(const hal::ProcessImage& image,
                                        const std::array<bool, kNumFeet>& stance_schedule) noexcept {
   // joints: the last valid values (the safety checks decide whether they are fresh enough)
   VectorJ qj, qdj, tau;
+  stale_.fill(false);
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     const auto& in = image.joints[static_cast<std::size_t>(j)];
     qj(j) = in.position_rad;
     qdj(j) = in.velocity_rad_s;
     tau(j) = in.torque_Nm;
+    if (in.status == hal::InputStatus::kHeld) stale_[static_cast<std::size_t>(j / dynamics::kJointsPerLeg)] = true;
+    if (lost_.joint[static_cast<std::size_t>(j)]) {
+      if (!std::isfinite(qj(j))) qj(j) = q_(7 + j);
+      qdj(j) = 0.0;
+      tau(j) = 0.0;
+    }
   }
   if (!qj.allFinite() || !qdj.allFinite() || !tau.allFinite()) return EstimatorStatus::kNoJointData;
 
   const auto& imu = image.imu;
-  const Eigen::Vector3d gyro_I(imu.gyro_rad_s[0], imu.gyro_rad_s[1], imu.gyro_rad_s[2]);
-  const Eigen::Vector3d accel_I(imu.accel_m_s2[0], imu.accel_m_s2[1], imu.accel_m_s2[2]);
+  Eigen::Vector3d gyro_I(imu.gyro_rad_s[0], imu.gyro_rad_s[1], imu.gyro_rad_s[2]);
+  Eigen::Vector3d accel_I(imu.accel_m_s2[0], imu.accel_m_s2[1], imu.accel_m_s2[2]);
+  if (lost_.imu && initialised_) {
+    // without the IMU: not rotating (the gyro reads its bias) and not accelerating (the specific
+    // force is gravity's reaction), the lever arm's terms then vanish
+    gyro_I = R_BI_.transpose() * ekf_.gyro_bias();
+    accel_I = R_BI_.transpose() * (ekf_.R_WB().transpose() * -model_.gravity_W + ekf_.accel_bias());
+  }
   if (!gyro_I.allFinite() || !accel_I.allFinite()) return EstimatorStatus::kNoImu;
   const Eigen::Vector3d gyro_B = R_BI_ * gyro_I;
   const Eigen::Vector3d accel_at_imu_B = R_BI_ * accel_I;  // specific force: +g up at rest
@@ -105,7 +118,7 @@ EstimatorStatus StateEstimator::Update(const hal::ProcessImage& image,
     const auto l = static_cast<std::size_t>(leg);
     p_BF_[l] = legs_.Foot(leg, qj.segment<3>(3 * leg), &J_[l], nullptr, nullptr, &Jw_[l]);
     const Eigen::Vector3d F_B = -J_[l].transpose().partialPivLu().solve(tau.segment<3>(3 * leg));
-    load_[l] = (R * F_B).z();
+    load_[l] = lost_.leg(leg) ? 0.0 : (R * F_B).z();  // a lost leg's foot is no contact
     contacts_[l].Update(load_[l], settings_.contact, dt_);
   }
 
@@ -195,6 +208,8 @@ void StateEstimator::CorrectWithFeet(const VectorJ& qdj, const Eigen::Vector3d& 
     Eigen::Vector3d z;
     foot_measurement(l, &H, &z);
     f.point_velocity_W = -z;
+    if (lost_.leg(static_cast<int>(l))) f.contact_probability = 0.0;
+    if (stale_[l]) continue;  // a held joint's velocity is old: not this cycle's measurement
     if (f.contact_probability < r_min) continue;
     ++candidates;
     f.contact_velocity_W = -z;

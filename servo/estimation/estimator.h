@@ -169,6 +169,12 @@ class StateEstimator {
   EstimatorStatus Update(const hal::ProcessImage& image,
                          const std::array<bool, kNumFeet>& stance_schedule) noexcept;
 
+  /// What a fault's stop must do without, from the next Update on (servo/runtime/stop_class.h):
+  /// a lost joint reads its last finite angle, at rest, with no torque, and its leg's foot is
+  /// no contact; without the IMU the filter predicts the base unaccelerated and not rotating,
+  /// the legs' kinematics correcting it (a sit-down's worth of time). Nothing lost: the default.
+  void DoWithout(const LostInputs& lost) noexcept { lost_ = lost; }
+
   /// Generalised coordinates and velocities (docs/conventions.md).
   const VectorQ& q() const noexcept { return q_; }
   const VectorV& v() const noexcept { return v_; }
@@ -198,6 +204,8 @@ class StateEstimator {
   void CorrectWithFeet(const VectorJ& qdj, const Eigen::Vector3d& w_B) noexcept;
 
   const dynamics::Model& model_;
+  LostInputs lost_;
+  std::array<bool, kNumFeet> stale_{};  // a joint of the leg is held this cycle (its input late)
   EstimatorConfig settings_;
   double dt_;
   dynamics::LegKinematics legs_;

@@ -38,13 +38,16 @@ struct MotionPhaseTable {
   // base frame, braked to rest (after a stand-up: none)
   static void EnterSitDown(M& m, const MotionInputs& in) noexcept {
     Eigen::Vector2d v0_B = Eigen::Vector2d::Zero();
-    if (m.left_ != MotionPhase::kStandUp) {
+    if (m.left_ == MotionPhase::kReference) {
       const BaseReference& b = m.sample_->base;
       const double c = std::cos(b.yaw), s = std::sin(b.yaw);
       v0_B = Eigen::Vector2d(c * b.v_W.x() + s * b.v_W.y(), -s * b.v_W.x() + c * b.v_W.y());
     }
+    m.excluded_ = {};
+    if (m.sit_cause_ == SitDownCause::kFault && in.lost != nullptr)
+      for (int l = 0; l < kNumFeet; ++l) m.excluded_[static_cast<std::size_t>(l)] = in.lost->leg(l);
     m.posture_.Start(in.q_rad, m.joints_->stance, m.config_.crouch_height_m,
-                     m.config_.sit_down_s, v0_B);
+                     m.config_.sit_down_s, v0_B, 0.4, m.excluded_);
   }
 
   // outside ACTIVE nothing moves: the joint reference keeps its last value
@@ -61,7 +64,7 @@ struct MotionPhaseTable {
     // the stance gains ring a light leg behind the lag
     if (m.phase_ == MotionPhase::kSitDown && in.contacts != nullptr)
       for (std::size_t f = 0; f < kNumFeet; ++f) {
-        if (!m.posture_.starts_on_ground(f) && in.contacts->probability[f] < 0.5)
+        if (!m.posture_.starts_on_ground(f) && (m.excluded_[f] || in.contacts->probability[f] < 0.5))
           m.joints_->stance[f] = false;
         m.joints_->takeover[f] = std::min(m.joints_->takeover[f], in.contacts->probability[f]);
       }
@@ -94,7 +97,7 @@ struct MotionPhaseTable {
   // robot rests: torque off before that would drop it (a fault's damping stays as configured)
   static MotionPhase SampleSettle(M& m, const MotionInputs& in) noexcept {
     if (!in.damping) return m.phase_;
-    m.settling_ = !in.damping_for_fault;
+    m.settling_ = !in.damping_cut;
     if (in.cycles_in_mode <= 1) m.settled_s_ = 0.0;
     m.settled_s_ =
         in.fastest_joint_rad_s < m.config_.settle_speed_rad_s ? m.settled_s_ + m.dt_ : 0.0;
@@ -195,6 +198,23 @@ void MotionSequencer::Enable(const MotionInputs& in) noexcept {
 MotionRequests MotionSequencer::RequestSitDown(SitDownCause cause,
                                                const MotionInputs& in) noexcept {
   MotionRequests r;
+  if (cause == SitDownCause::kFault) {
+    // at once, wherever the feet are (the swing foot is lowered where it is); sitting down
+    // already, again from here only when a leg is newly lost
+    const bool sitting = phase_ == MotionPhase::kSitDown;
+    if (!sitting && MotionPhaseTable::Of(phase_).sit == nullptr) return r;
+    bool news = !sitting || sit_cause_ != SitDownCause::kFault;
+    if (in.lost != nullptr)
+      for (int l = 0; l < kNumFeet; ++l) news = news || in.lost->leg(l) != excluded_[static_cast<std::size_t>(l)];
+    sit_cause_ = SitDownCause::kFault;
+    if (!news) return r;
+    sit_pending_ = false;
+    sit_wait_s_ = 0.0;
+    Enter(MotionPhase::kSitDown, in);
+    r.sit_down_began = true;
+    r.cause = sit_cause_;
+    return r;
+  }
   if (MotionPhaseTable::Of(phase_).sit == nullptr) return r;
   if (!sit_pending_ || cause == SitDownCause::kStop) sit_cause_ = cause;  // a stop overrides
   sit_pending_ = true;

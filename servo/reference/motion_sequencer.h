@@ -24,9 +24,10 @@
 //                q_ref = q0 + s(x) (q_r − q0),  s(x) = 3x² − 2x³,  x = t / enable_ramp_s   (1)
 //              (q̇_ref by the product rule; q̈_ref = s q̈_r)
 //   SIT-DOWN   PostureMove from the measured posture down to crouch_height_m in sit_down_s, the
-//              reference's stance feet on the ground, its base velocity braked to rest
+//              reference's stance feet on the ground, its base velocity braked to rest; after a
+//              fault, a leg with a lost joint held out of it and the base over the other feet
 //   SETTLE     after a sit-down, until the next enable: while the safety state machine damps (not
-//              for a fault) the damping is the sit-down's, held until every joint has been slower
+//              a fault's cut) the damping is the sit-down's, held until every joint has been slower
 //              than settle_speed_rad_s for kSettledS, at most settle_max_s
 //
 // A sit-down asked for in STAND-UP starts at once; in REFERENCE it waits until the reference has
@@ -51,6 +52,8 @@ const char* ToString(MotionPhase p) noexcept;
 enum class SitDownCause : std::uint8_t {
   kStop,     // a controlled stop: damping, then STOPPED
   kDisable,  // a disable: damping, then STANDBY at 0 N·m
+  kFault,    // a fault's controlled or degraded stop (servo/runtime/stop_class.h): at once,
+             // without the lost legs; damping, then FAULT
 };
 
 /// The durations and limits of the phases (0 s turns a posture move off).
@@ -71,13 +74,15 @@ struct MotionConfig {
 struct MotionInputs {
   bool active = false;                 // the mode is ACTIVE
   bool damping = false;                // the mode is DAMPING ...
-  bool damping_for_fault = false;      // ... and a fault caused it
+  bool damping_cut = false;            // ... a fault's, at once, without a sit-down
   std::uint64_t cycles_in_mode = 0;    // cycles in the current mode (this one counted)
   dynamics::VectorJ q_rad = dynamics::VectorJ::Zero();  // measured joint positions
   double fastest_joint_rad_s = 0.0;    // the fastest joint's speed; infinite when one is unknown
   /// The feet's detected contact for the reference's contact-aware phases (Reference::Sample);
   /// null: the gait's clock alone.
   const FootContacts* contacts = nullptr;
+  /// What a fault's stop does without (a leg with a lost joint sits out); null: nothing lost.
+  const LostInputs* lost = nullptr;
 };
 
 /// What the sequencer asks of the safety state machine (the loop relays it, in this order).
@@ -104,7 +109,9 @@ class MotionSequencer {
   /// when stand_up_s > 0, else REFERENCE ramping from it.
   void Enable(const MotionInputs& in) noexcept;
   /// A controlled stop or a disable while ACTIVE (the caller checks sits_down()): SIT-DOWN now or
-  /// once every foot is down. Ignored while sitting down already.
+  /// once every foot is down. Ignored while sitting down already. A fault (kFault) sits down at
+  /// once from the feet where they are, and again from where it is when a leg is newly lost;
+  /// it overrides a stop's or a disable's cause.
   MotionRequests RequestSitDown(SitDownCause cause, const MotionInputs& in) noexcept;
   /// The reference stage, every cycle: writes the joint reference of the phase (nothing outside
   /// ACTIVE), and in SETTLE decides the damping's hold. False when a posture move's inverse
@@ -145,6 +152,7 @@ class MotionSequencer {
   dynamics::VectorJ q0_ = dynamics::VectorJ::Zero();  // where the enable ramp (1) starts
   bool sit_pending_ = false;
   SitDownCause sit_cause_ = SitDownCause::kStop;
+  std::array<bool, kNumFeet> excluded_{};  // the legs the sit-down holds out (a fault's)
   double sit_wait_s_ = 0.0;
   double settled_s_ = 0.0;                 // SETTLE: how long every joint has been at rest
   bool settling_ = false, hold_damping_ = false;

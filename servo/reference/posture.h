@@ -28,10 +28,15 @@ class PostureMove {
   /// the one that puts the `on_ground` feet on the ground (their mean); the feet not on the
   /// ground are lowered onto it in the first `lower_fraction` of the move.
   /// `v0_B`: the base's horizontal velocity at the start (base frame, m/s), braked to rest in
-  /// min(duration, 0.3 s).
+  /// min(duration, 0.3 s). `excluded`: legs that cannot carry (a fault's lost joint): held where
+  /// they are, out of the stance set, and the base moves over the centroid of the other feet in
+  /// the first kShiftFraction of the move (a minimum-jerk shift), so that three feet hold it.
   void Start(const dynamics::VectorJ& q, const std::array<bool, kNumFeet>& on_ground, double h1_m,
              double duration_s, const Eigen::Vector2d& v0_B = Eigen::Vector2d::Zero(),
-             double lower_fraction = 0.4) noexcept;
+             double lower_fraction = 0.4, const std::array<bool, kNumFeet>& excluded = {}) noexcept;
+  static constexpr double kShiftFraction = 0.5;
+  /// The base's horizontal shift at the end of the move (move frame), zero without an excluded leg.
+  const Eigen::Vector2d& shift_m() const noexcept { return shift_; }
 
   /// The joint reference at `t` seconds into the move (t ≥ duration: the end posture, at rest);
   /// false when a leg's inverse kinematics did not solve (the previous sample stands).
@@ -53,6 +58,10 @@ class PostureMove {
   Eigen::Vector2d v0_B_ = Eigen::Vector2d::Zero();
   std::array<Eigen::Vector3d, kNumFeet> p_WF0_{};  // feet at the start, base at (0, 0, h0)
   std::array<bool, kNumFeet> on_ground_{};
+  std::array<bool, kNumFeet> excluded_{};
+  Eigen::Vector2d shift_ = Eigen::Vector2d::Zero();
+  double shift_s_ = 1.0;
+  dynamics::VectorJ q_start_ = dynamics::VectorJ::Zero();
   dynamics::VectorJ last_q_ = dynamics::VectorJ::Zero();
   Eigen::Vector3d last_p_B_ = Eigen::Vector3d::Zero();
 };

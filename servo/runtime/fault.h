@@ -14,6 +14,7 @@ struct Fault {
   EventReason reason = EventReason::kNone;
   std::int16_t joint = -1;
   std::int16_t bus = -1;
+  bool imu = false;  // the IMU's input or device (joint −1)
   std::array<char, kEventDetailSize> detail{};
   explicit operator bool() const noexcept { return reason != EventReason::kNone; }
 };

@@ -14,6 +14,11 @@ std::string_view JointLabel(int j) noexcept {
   return name.empty() ? std::string_view("?") : name;
 }
 
+Fault ImuFault(Fault f) noexcept {
+  f.imu = true;
+  return f;
+}
+
 }  // namespace
 
 InputChecker::InputChecker(const SafetyLimits& limits, const hal::HalConfig& hal)
@@ -50,10 +55,19 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
                                         hal::BusState::kBusOff)
       note(MakeFault(EventReason::kBusOff, -1, bi, "bus %s is bus-off",
                      hal.config().buses[b].name.c_str()));
-    if (c.malformed != malformed_[b])
-      note(MakeFault(EventReason::kCorruptFrames, -1, bi, "bus %s: %llu malformed frame(s)",
-                     hal.config().buses[b].name.c_str(),
-                     static_cast<unsigned long long>(c.malformed - malformed_[b])));
+    if (c.malformed != malformed_[b]) {
+      // the board whose frame it was (the HAL's last faulty node): the stop's class needs it
+      const hal::DeviceRuntime* from = nullptr;
+      for (const auto& d : hal.bus(b).devices())
+        if (d.node == c.last_fault_node) from = &d;
+      Fault f = MakeFault(EventReason::kCorruptFrames, from != nullptr ? from->joint : -1, bi,
+                          "bus %s: %llu malformed frame(s), the last from node %u",
+                          hal.config().buses[b].name.c_str(),
+                          static_cast<unsigned long long>(c.malformed - malformed_[b]),
+                          static_cast<unsigned>(c.last_fault_node));
+      f.imu = from != nullptr && from->kind == hal::DeviceKind::kImu;
+      note(f);
+    }
     if (c.foreign_master != foreign_[b])
       note(MakeFault(EventReason::kForeignMaster, -1, bi,
                      "bus %s: %llu SYNC/NMT/RPDO frame(s) the daemon did not send (last id 0x%03x)",
@@ -72,15 +86,18 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
   if (expect_op) {
     for (std::size_t b = 0; b < hal.num_buses(); ++b)
       for (const auto& d : hal.bus(b).devices())
-        if (d.state != hal::DeviceState::kOp)
+        if (d.state != hal::DeviceState::kOp) {
           // past the hold limit (one policy, docs/hal.md) the device leaves OP for missing
           // inputs: that is the reason, not a fault of the device
-          note(MakeFault(d.error == hal::DeviceError::kInputsLost ? EventReason::kInputMissing
-                                                                  : EventReason::kDeviceFault,
-                         d.joint, static_cast<int>(b),
-                         "device node %u on bus %s left OP (%s, error %s)", d.node,
-                         hal.config().buses[b].name.c_str(), hal::ToString(d.state),
-                         hal::ToString(d.error)));
+          Fault f = MakeFault(d.error == hal::DeviceError::kInputsLost ? EventReason::kInputMissing
+                                                                       : EventReason::kDeviceFault,
+                              d.joint, static_cast<int>(b),
+                              "device node %u on bus %s left OP (%s, error %s)", d.node,
+                              hal.config().buses[b].name.c_str(), hal::ToString(d.state),
+                              hal::ToString(d.error));
+          f.imu = d.kind == hal::DeviceKind::kImu;
+          note(f);
+        }
   }
 
   const auto& image = hal.image();
@@ -138,19 +155,19 @@ Fault InputChecker::Check(const hal::Hal& hal, hal::HalStatus read_status,
       a2 += imu.accel_m_s2[static_cast<std::size_t>(i)] * imu.accel_m_s2[static_cast<std::size_t>(i)];
     }
     if (!finite)
-      note(MakeFault(EventReason::kNonFiniteInput, -1, -1, "IMU: non-finite reading"));
+      note(ImuFault(MakeFault(EventReason::kNonFiniteInput, -1, -1, "IMU: non-finite reading")));
     else if (std::sqrt(g2) > limits_.max_gyro_rad_s)
-      note(MakeFault(EventReason::kOutOfRange, -1, -1, "IMU: |gyro|=%.2f rad/s above %.2f",
-                     std::sqrt(g2), limits_.max_gyro_rad_s));
+      note(ImuFault(MakeFault(EventReason::kOutOfRange, -1, -1, "IMU: |gyro|=%.2f rad/s above %.2f",
+                              std::sqrt(g2), limits_.max_gyro_rad_s)));
     else if (std::sqrt(a2) > limits_.max_accel_m_s2)
-      note(MakeFault(EventReason::kOutOfRange, -1, -1, "IMU: |accel|=%.1f m/s2 above %.1f",
-                     std::sqrt(a2), limits_.max_accel_m_s2));
+      note(ImuFault(MakeFault(EventReason::kOutOfRange, -1, -1, "IMU: |accel|=%.1f m/s2 above %.1f",
+                              std::sqrt(a2), limits_.max_accel_m_s2)));
   } else if (imu.status == hal::InputStatus::kDeviceFault) {
-    note(MakeFault(EventReason::kDeviceFault, -1, -1, "IMU reports a fault (status 0x%04x)",
-                   imu.status_word));
+    note(ImuFault(MakeFault(EventReason::kDeviceFault, -1, -1, "IMU reports a fault (status 0x%04x)",
+                            imu.status_word)));
   } else if (imu.status != hal::InputStatus::kHeld && imu.age_cycles > max_held_cycles_) {
-    note(MakeFault(EventReason::kInputMissing, -1, -1, "IMU: no fresh input for %u cycles (%s)",
-                   imu.age_cycles, hal::ToString(imu.status)));
+    note(ImuFault(MakeFault(EventReason::kInputMissing, -1, -1, "IMU: no fresh input for %u cycles (%s)",
+                            imu.age_cycles, hal::ToString(imu.status))));
   }
   return first;
 }

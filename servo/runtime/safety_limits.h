@@ -15,7 +15,7 @@ struct SafetyLimits {
   double max_gyro_rad_s = 20.0;
   double max_accel_m_s2 = 200.0;
   double max_tilt_rad = 1.2;            // estimated roll or pitch beyond this → fault
-  double damping_Nms_per_rad = 30.0;    // DAMPING: τ = −D q̇
+  double damping_Nms_per_rad = 150.0;   // DAMPING (a cut, a damp command): τ = −D q̇
   double damping_duration_s = 1.0;      // then zero torque (FAULT or STOPPED)
   bool damp_on_bad_command = true;      // a refused command while ACTIVE → DAMPING
 
@@ -43,7 +43,7 @@ struct SafetyLimits {
     a->Visit(hal::Key("max_tilt_rad", &max_tilt_rad).In(0.05, 3.2).Unit("rad")
                  .Doc("estimated roll or pitch beyond this is a fault"));
     a->Visit(hal::Key("damping_Nms_per_rad", &damping_Nms_per_rad).In(0.0, kMaxKdTau)
-                 .Unit("N·m·s/rad").Doc("DAMPING: τ = −D q̇"));
+                 .Unit("N·m·s/rad").Doc("DAMPING (a cut, a damp command): τ = −D q̇"));
     a->Visit(hal::Key("damping_duration_s", &damping_duration_s).In(0.0, 60.0).Unit("s")
                  .Doc("then zero torque (FAULT or STOPPED)"));
     a->Visit(hal::Key("damp_on_bad_command", &damp_on_bad_command)

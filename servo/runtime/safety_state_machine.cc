@@ -1,5 +1,6 @@
 #include "servo/runtime/safety_state_machine.h"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace hyq::servo {
@@ -34,12 +35,18 @@ struct SafetyTable {
     return {ServoMode::kActive, o.reason, "controller torques applied"};
   }
 
-  static Next Disable(M&, const Occurrence&) noexcept {
+  // never during a fault's sit-down: 0 N·m would drop the robot the sit-down is lowering
+  static Next Disable(M& m, const Occurrence&) noexcept {
+    if (m.fault_stop_ != StopClass::kNone) {
+      m.Note(EventReason::kCommandRejected, "disable refused: sitting down after a fault");
+      return {m.mode_};
+    }
     return {ServoMode::kStandby, EventReason::kDisableCommand, "zero torque"};
   }
 
   static Next Damp(M& m, const Occurrence&) noexcept {
-    m.damping_next_ = ServoMode::kStandby;
+    m.damping_next_ = m.fault_stop_ != StopClass::kNone ? ServoMode::kFault : ServoMode::kStandby;
+    m.damping_cut_ = false;
     return {ServoMode::kDamping, EventReason::kDampingCommand, "damping on command"};
   }
 
@@ -55,6 +62,7 @@ struct SafetyTable {
   // a controlled stop: from ACTIVE through DAMPING, from a resting mode at once
   static Next StopDamping(M& m, const Occurrence&) noexcept {
     m.damping_next_ = ServoMode::kStopped;
+    m.damping_cut_ = false;
     return {ServoMode::kDamping, EventReason::kStopRequest, "controlled stop: damping"};
   }
   static Next StopNow(M&, const Occurrence&) noexcept {
@@ -64,14 +72,26 @@ struct SafetyTable {
   static Next FaultTo(ServoMode to, M& m, const Occurrence& o) noexcept {
     const Fault& f = *o.fault;
     m.latched_ |= Bit(f);
-    return {to, f.reason, f.detail.data(), f.joint, f.bus};
+    return {to, f.reason, f.detail.data(), f.joint, f.bus, o.stop};
   }
   static Next FaultDamping(M& m, const Occurrence& o) noexcept {
     m.damping_next_ = m.stop_ ? ServoMode::kStopped : ServoMode::kFault;
+    m.damping_cut_ = true;
     return FaultTo(ServoMode::kDamping, m, o);
   }
   static Next FaultNow(M& m, const Occurrence& o) noexcept {
     return FaultTo(ServoMode::kFault, m, o);
+  }
+  // ACTIVE: by the stop's class, a cut damps at once; a controlled or degraded stop sits down
+  // first (the caller's sit-down), recorded once per reason; the worst class so far stands
+  static Next FaultInActive(M& m, const Occurrence& o) noexcept {
+    if (o.stop == StopClass::kCut || !m.fault_sit_down_) return FaultDamping(m, o);
+    const bool begins = m.fault_stop_ == StopClass::kNone;
+    if (begins) m.fault_reason_ = o.fault->reason;
+    const bool worse = o.stop > m.fault_stop_;
+    m.fault_stop_ = std::max(m.fault_stop_, o.stop);
+    if (worse) m.latched_ &= ~Bit(*o.fault);  // a worse class is news: record it again
+    return RecordOnce(m, o);
   }
   // already safe: an event, once per reason until acknowledged
   static Next RecordOnce(M& m, const Occurrence& o) noexcept {
@@ -85,6 +105,7 @@ struct SafetyTable {
     e.reason = f.reason;
     e.joint = f.joint;
     e.bus = f.bus;
+    e.stop = o.stop;
     e.detail = f.detail;
     m.Push(e);
     return {m.mode_};
@@ -92,6 +113,15 @@ struct SafetyTable {
   static Next FaultInDamping(M& m, const Occurrence& o) noexcept {
     m.damping_next_ = m.stop_ ? ServoMode::kStopped : ServoMode::kFault;
     return RecordOnce(m, o);
+  }
+
+  // the fault's sit-down is over: its damping, then FAULT (or STOPPED)
+  static Next EndFaultSitDown(M& m, const Occurrence&) noexcept {
+    if (m.fault_stop_ == StopClass::kNone) return {m.mode_};
+    m.damping_next_ = m.stop_ ? ServoMode::kStopped : ServoMode::kFault;
+    m.damping_cut_ = false;
+    return {ServoMode::kDamping, m.fault_reason_, "sat down after the fault: damping",
+            -1, -1, m.fault_stop_};
   }
 
   static Next DampingDone(M& m, const Occurrence&) noexcept {
@@ -118,7 +148,7 @@ const SafetyStateMachine::ModeRow SafetyTable::kRows[kNumServoModes] = {
   /* STANDBY */  {Torque::kZero,       false, kPreOp,
      Stay,      Enable,       Stay,    Damp, Stay,        StopNow,     FaultNow,       Stay},
   /* ACTIVE */   {Torque::kController, false, kPreOp,
-     Stay,      RefuseEnable, Disable, Damp, Stay,        StopDamping, FaultDamping,   Stay},
+     Stay,      RefuseEnable, Disable, Damp, Stay,        StopDamping, FaultInActive,  Stay},
   /* DAMPING */  {Torque::kDamping,    false, kPreOp,
      Stay,      RefuseEnable, Stay,    Stay, Stay,        Stay,        FaultInDamping, DampingDone},
   /* FAULT */    {Torque::kZero,       true,  kSafeOp,
@@ -131,7 +161,7 @@ const SafetyStateMachine::ModeRow SafetyTable::kRows[kNumServoModes] = {
 bool SafetyStateMachine::Dispatch(Handler ModeRow::*column, const Occurrence& o) noexcept {
   const Next next = (SafetyTable::kRows[static_cast<std::size_t>(mode_)].*column)(*this, o);
   if (next.mode == mode_) return false;
-  Transition(next.mode, next.reason, next.joint, next.bus, next.detail);
+  Transition(next.mode, next.reason, next.joint, next.bus, next.detail, next.stop);
   return true;
 }
 
@@ -218,9 +248,17 @@ void SafetyStateMachine::Stop() noexcept {
   Dispatch(&ModeRow::on_stop, {});
 }
 
-void SafetyStateMachine::Report(const Fault& f) noexcept {
+void SafetyStateMachine::Report(const Fault& f, StopClass stop) noexcept {
   if (!f || static_cast<std::size_t>(f.reason) >= kNumEventReasons) return;
-  Dispatch(&ModeRow::on_fault, {.fault = &f});
+  Dispatch(&ModeRow::on_fault, {.fault = &f, .stop = stop});
+}
+
+void SafetyStateMachine::EndFaultSitDown(bool stop) noexcept {
+  if (mode_ != ServoMode::kActive) return;
+  stop_ = stop_ || stop;
+  const SafetyTable::Next next = SafetyTable::EndFaultSitDown(*this, {});
+  if (next.mode != mode_)
+    Transition(next.mode, next.reason, next.joint, next.bus, next.detail, next.stop);
 }
 
 void SafetyStateMachine::Note(EventReason reason, const char* detail) noexcept {
@@ -234,7 +272,7 @@ void SafetyStateMachine::Note(EventReason reason, const char* detail) noexcept {
 }
 
 void SafetyStateMachine::Transition(ServoMode to, EventReason why, int joint, int bus,
-                                    const char* detail) noexcept {
+                                    const char* detail, StopClass stop) noexcept {
   SafetyEvent e;
   e.cycle = cycle_;
   e.time_ns = now_ns_;
@@ -243,7 +281,10 @@ void SafetyStateMachine::Transition(ServoMode to, EventReason why, int joint, in
   e.reason = why;
   e.joint = static_cast<std::int16_t>(joint);
   e.bus = static_cast<std::int16_t>(bus);
+  e.stop = stop;
   std::snprintf(e.detail.data(), e.detail.size(), "%s", detail);
+  if (to != ServoMode::kDamping) damping_cut_ = false;
+  if (to != ServoMode::kActive) fault_stop_ = StopClass::kNone;
   mode_ = to;
   cycles_in_mode_ = 0;
   hold_damping_ = false;

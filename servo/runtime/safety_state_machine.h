@@ -6,7 +6,7 @@
 //            bring-up  enable   disable  damp     acknowledge  stop     fault    damping timer
 //   INIT     STANDBY   refused  -        -        -            STOPPED  FAULT    -
 //   STANDBY  -         ACTIVE¹  -        DAMPING  -            STOPPED  FAULT    -
-//   ACTIVE   -         refused  STANDBY  DAMPING  -            DAMPING  DAMPING  -
+//   ACTIVE   -         refused  STANDBY⁶ DAMPING  -            DAMPING  ⁷        -
 //   DAMPING  -         refused  -        -        -            -²       -³       ⁴
 //   FAULT    -         refused  -        -        STANDBY⁵     STOPPED  -³       -
 //   STOPPED  -         refused  -        -        -            -        -³       -
@@ -15,8 +15,11 @@
 //   reason until acknowledged (in DAMPING the damping then ends in FAULT). ⁴ after
 //   damping_duration_s, unless the caller holds it (the sit-down's settling, motion_sequencer.h):
 //   STOPPED once a stop was requested, else FAULT when a fault caused it, STANDBY after a damp
-//   command. ⁵ with clean inputs; else refused. "-": no transition, no event; a refusal is an
-//   event.
+//   command. ⁵ with clean inputs; else refused. ⁶ refused during a fault's sit-down. ⁷ by the
+//   fault's stop class (stop_class.h): cut → DAMPING at once (category 0); controlled or
+//   degraded → stays ACTIVE while the caller sits the robot down (fault_stop(); category 1),
+//   then DAMPING (EndFaultSitDown) and FAULT; a later cut fault during it → DAMPING at once.
+//   "-": no transition, no event; a refusal is an event.
 //
 // STANDBY: devices in OP, 0 N·m. ACTIVE: the controller's torque. DAMPING: τ = −D q̇ on the joints
 // whose inputs are valid, 0 N·m on the others. FAULT: 0 N·m and the devices asked to SAFE-OP
@@ -100,9 +103,19 @@ class SafetyStateMachine {
   void Update(const CycleFacts& facts) noexcept;
   /// Controlled stop: ACTIVE → DAMPING → STOPPED, anything else → STOPPED.
   void Stop() noexcept;
-  /// A fault: ACTIVE → DAMPING, STANDBY → FAULT; while already safe, only an event (once per
-  /// reason until acknowledged).
-  void Report(const Fault& f) noexcept;
+  /// A fault of stop class `stop` (stop_class.h): in ACTIVE a cut → DAMPING, a controlled or
+  /// degraded stop → a sit-down under way in ACTIVE (fault_stop(); when the caller has no
+  /// sit-down, see SetFaultSitDown, → DAMPING); STANDBY → FAULT; while already safe, only an event
+  /// (once per reason until acknowledged).
+  void Report(const Fault& f, StopClass stop = StopClass::kCut) noexcept;
+  /// Whether the caller sits the robot down on a controlled or degraded stop (default: no, every
+  /// fault damps at once).
+  void SetFaultSitDown(bool enabled) noexcept { fault_sit_down_ = enabled; }
+  /// The stop class of the fault sit-down under way in ACTIVE (kNone: none).
+  StopClass fault_stop() const noexcept { return fault_stop_; }
+  /// The fault sit-down is over: ACTIVE → DAMPING (the sit-down's damping, held by the caller),
+  /// then FAULT, or STOPPED once a stop was requested (`stop`: one is now).
+  void EndFaultSitDown(bool stop) noexcept;
   /// Records an event without a transition (applied commands, refused commands).
   void Note(EventReason reason, const char* detail) noexcept;
 
@@ -118,6 +131,8 @@ class SafetyStateMachine {
   std::uint64_t events_dropped() const noexcept { return dropped_; }
   /// Whether the current DAMPING ends in FAULT (a fault caused it) rather than STANDBY/STOPPED.
   bool damping_for_fault() const noexcept { return damping_next_ == ServoMode::kFault; }
+  /// Whether the current DAMPING is a cut (category 0): a fault's damping without a sit-down.
+  bool damping_cut() const noexcept { return mode_ == ServoMode::kDamping && damping_cut_; }
   bool stop_requested() const noexcept { return stop_; }
   bool ever_active() const noexcept { return ever_active_; }
 
@@ -127,6 +142,7 @@ class SafetyStateMachine {
   struct Occurrence {
     EventReason reason = EventReason::kNone;  // enable: why
     const Fault* fault = nullptr;             // fault
+    StopClass stop = StopClass::kCut;         // fault
     bool inputs_ok = false;                   // acknowledge
   };
   // a handler's answer: the next mode (the current one: no transition) and the transition's event
@@ -135,6 +151,7 @@ class SafetyStateMachine {
     EventReason reason = EventReason::kNone;
     const char* detail = "";
     int joint = -1, bus = -1;
+    StopClass stop = StopClass::kNone;
   };
   using Handler = Next (*)(SafetyStateMachine&, const Occurrence&) noexcept;
   // one row of the table, per mode
@@ -148,7 +165,8 @@ class SafetyStateMachine {
 
   // the current mode's handler in `column`; true when it moved to another mode
   bool Dispatch(Handler ModeRow::*column, const Occurrence& o) noexcept;
-  void Transition(ServoMode to, EventReason why, int joint, int bus, const char* detail) noexcept;
+  void Transition(ServoMode to, EventReason why, int joint, int bus, const char* detail,
+                  StopClass stop = StopClass::kNone) noexcept;
   void Push(const SafetyEvent& e) noexcept;
 
   SafetyLimits limits_;
@@ -168,6 +186,10 @@ class SafetyStateMachine {
   bool ack_pending_ = false;
   bool hold_damping_ = false;
   bool ever_active_ = false;
+  bool fault_sit_down_ = false;
+  bool damping_cut_ = false;
+  StopClass fault_stop_ = StopClass::kNone;
+  EventReason fault_reason_ = EventReason::kNone;  // the fault that began fault_stop_
   std::array<SafetyEvent, kEventCapacity> ring_{};
   std::size_t head_ = 0, size_ = 0;
   std::uint64_t events_ = 0, dropped_ = 0;

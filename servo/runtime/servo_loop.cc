@@ -90,6 +90,7 @@ ServoLoop::ServoLoop(const ServoConfig& config, const dynamics::Model& model, ha
                  &joint_ref_) {
   for (std::size_t f = 0; f < kNumFeet; ++f) env_.mu[f] = config.mu[f];
   pipeline_->HoldEnvironment(env_);
+  safety_.SetFaultSitDown(sequencer_.sits_down());
 }
 
 ServoLoop::~ServoLoop() = default;
@@ -120,6 +121,7 @@ void ServoLoop::Cycle(std::int64_t now_ns, std::int64_t wakeup_latency_ns) noexc
   const hal::HalStatus rs = hal_.Read(now_ns);                       clock.Mark(&timing_.read_ns);
   TakeCommands(now_ns);
   CheckInputs(rs);
+  estimator_.DoWithout(lost_);
   est_status_ = estimator_.Update(hal_.image(), ref_.joints.stance); clock.Mark(&timing_.estimate_ns);
   SampleReference();                                                 clock.Mark(&timing_.reference_ns);
   RunController();                                                   clock.Mark(&timing_.control_ns);
@@ -179,7 +181,8 @@ MotionInputs ServoLoop::MotionNow() const noexcept {
   MotionInputs in;
   in.active = safety_.mode() == ServoMode::kActive;
   in.damping = safety_.mode() == ServoMode::kDamping;
-  in.damping_for_fault = safety_.damping_for_fault();
+  in.damping_cut = safety_.damping_cut();
+  in.lost = &lost_;
   in.cycles_in_mode = safety_.cycles_in_mode();
   in.contacts = &contacts_;
   for (int j = 0; j < kNumJoints; ++j) {
@@ -195,25 +198,54 @@ MotionInputs ServoLoop::MotionNow() const noexcept {
 // what the motion sequencer asks for, told to the safety state machine
 void ServoLoop::Relay(const MotionRequests& r) noexcept {
   const bool stop = r.cause == SitDownCause::kStop;
-  if (r.sit_down_began)
+  if (r.sit_down_began && r.cause != SitDownCause::kFault)  // a fault's event says it already
     safety_.Note(stop ? EventReason::kStopRequest : EventReason::kDisableCommand,
                  "sitting down to the crouch first");
   if (r.sit_down_ended) {
-    if (stop) safety_.Stop();
+    if (safety_.fault_stop() != StopClass::kNone)
+      safety_.EndFaultSitDown(stop_requested_.load(std::memory_order_relaxed));
+    else if (stop) safety_.Stop();
     else (void)safety_.Damp();  // damping, then STANDBY at 0 N·m
   }
   if (r.duration_over) RequestStop();
 }
 
+// a fault's stop class from what it, and every device out of OP with it, leave the daemon
+// (stop_class.h); a controlled or degraded stop in ACTIVE sits down at once, without what was lost
+void ServoLoop::Fail(const Fault& f) noexcept {
+  if (!f) return;
+  const bool active = safety_.mode() == ServoMode::kActive;
+  StopClass stop = Classify(f, hal_, &lost_);
+  if (active) {
+    (void)ScanLost(hal_, &lost_);
+    stop = StopClassOf(lost_);
+  }
+  safety_.Report(f, stop);
+  if (safety_.fault_stop() != StopClass::kNone)
+    Relay(sequencer_.RequestSitDown(SitDownCause::kFault, MotionNow()));
+}
+
 void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
   const Fault input_fault = checker_.Check(hal_, read_status, safety_.expects_devices_in_op());
-  safety_.Report(input_fault);
+  Fail(input_fault);
+  // during a fault's sit-down the first fault found each cycle may hide a device lost later:
+  // the sit-down leaves it out too, or is cut when the two together are more than one device
+  if (safety_.fault_stop() != StopClass::kNone && ScanLost(hal_, &lost_)) {
+    if (StopClassOf(lost_) == StopClass::kCut)
+      safety_.Report(MakeFault(EventReason::kInputMissing, -1, -1,
+                               "more inputs lost during the sit-down (%d legs%s): cut",
+                               lost_.legs(), lost_.imu ? " and the IMU" : ""),
+                     StopClass::kCut);
+    else
+      Relay(sequencer_.RequestSitDown(SitDownCause::kFault, MotionNow()));
+  }
   // the device scan only matters while an acknowledgement waits for the devices
   if (safety_.acknowledge_pending())
     safety_.Update({.inputs_ok = !input_fault, .devices_in_op = hal_.AllIn(hal::DeviceState::kOp)});
 }
 
 void ServoLoop::EnterActive() noexcept {
+  lost_.Clear();  // enable comes from STANDBY: the faults were acknowledged with clean inputs
   pipeline_->Reset();  // no integral, warm start or disturbance carried over from an earlier ACTIVE
   active_time_ = 0.0;
   sequencer_.Enable(MotionNow());
@@ -232,7 +264,7 @@ void ServoLoop::SampleReference() noexcept {
   contacts_.base_height_m = q(2);
   contacts_.R_WB = estimator_.R_WB();
   if (!sequencer_.Sample(MotionNow()))
-    safety_.Report(MakeFault(EventReason::kControllerFailure, -1, -1,
+    Fail(MakeFault(EventReason::kControllerFailure, -1, -1,
                              "%s: a leg's inverse kinematics failed",
                              ToString(sequencer_.phase())));
 }
@@ -241,7 +273,11 @@ void ServoLoop::SampleReference() noexcept {
 VectorJ ServoLoop::MeasuredTorque() const noexcept {
   VectorJ tau_m;
   const auto& joints = hal_.image().joints;
-  for (int j = 0; j < kNumJoints; ++j) tau_m(j) = joints[static_cast<std::size_t>(j)].torque_Nm;
+  for (int j = 0; j < kNumJoints; ++j) {
+    const double tau = joints[static_cast<std::size_t>(j)].torque_Nm;
+    // a lost joint's load cell (a fault's stop does without it) reads nothing
+    tau_m(j) = lost_.joint[static_cast<std::size_t>(j)] || !std::isfinite(tau) ? 0.0 : tau;
+  }
   return tau_m;
 }
 
@@ -252,13 +288,13 @@ void ServoLoop::RunController() noexcept {
   if (safety_.mode() == ServoMode::kDamping && sequencer_.settling()) return ObserveFeet();
   if (safety_.mode() != ServoMode::kActive) return;
   if (const Fault f = CheckEstimate(est_status_, estimator_.R_WB(), config_.safety)) {
-    safety_.Report(f);
+    Fail(f);
     return;
   }
   const VectorQ& q = estimator_.q();
   const VectorV& v = estimator_.v();
   if (const Fault f = CheckDynamics(dynamics::ComputeCycleDynamics(model_, q, v, dyn_.get()))) {
-    safety_.Report(f);
+    Fail(f);
     return;
   }
   const VectorJ tau_m = MeasuredTorque();
@@ -272,10 +308,13 @@ void ServoLoop::RunController() noexcept {
       ++stats_.controller_fallbacks_deadline_stalled;
   }
   if (const Fault f = CheckControllerOutput(pipeline_->controller().kind(), id_status_, out_)) {
-    safety_.Report(f);
+    Fail(f);
     return;
   }
   tau_ = out_.tau_Nm;
+  // a lost joint is left to its board (limp once it leaves OP): no torque computed without it
+  for (int j = 0; j < kNumJoints; ++j)
+    if (lost_.joint[static_cast<std::size_t>(j)]) tau_(j) = 0.0;
 }
 
 // after a sit-down, which feet still carry the trunk (the feet's force observer; outside ACTIVE
@@ -350,7 +389,7 @@ void ServoLoop::EndCycle(const SafetyDecision& d, std::int64_t wakeup_latency_ns
   const std::int64_t used_ns = config_.clock == ClockMode::kLockstep
                                    ? ThreadCpuNs() - cpu0
                                    : timing_.total_ns + std::max<std::int64_t>(wakeup_latency_ns, 0);
-  safety_.Report(deadline_.Observe(used_ns, timing_.total_ns));
+  Fail(deadline_.Observe(used_ns, timing_.total_ns));
   stats_.deadline_misses = deadline_.misses();
   stats_.consecutive_misses = deadline_.consecutive();
   stats_.max_consecutive_misses = deadline_.max_consecutive();

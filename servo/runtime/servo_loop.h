@@ -33,6 +33,7 @@
 #include "servo/runtime/input_checker.h"
 #include "servo/runtime/safety_state_machine.h"
 #include "servo/runtime/servo_config.h"
+#include "servo/runtime/stop_class.h"
 #include "servo/telemetry/telemetry_snapshot.h"
 
 namespace hyq::servo {
@@ -136,6 +137,7 @@ class ServoLoop {
   void BeginCycle(std::int64_t now_ns) noexcept;
   void TakeCommands(std::int64_t now_ns) noexcept;
   void CheckInputs(hal::HalStatus read_status) noexcept;
+  void Fail(const Fault& f) noexcept;
   void SampleReference() noexcept;
   void RunController() noexcept;
   void ApplyDecision(const SafetyDecision& d, std::int64_t now_ns) noexcept;
@@ -179,7 +181,8 @@ class ServoLoop {
   ReferenceSample ref_;
   JointReference joint_ref_;  // the phase's: the enable ramp, the stand-up or the sit-down
   FootContacts contacts_;     // the estimator's, for the reference's contact-aware phases
-  bool feet_known_ = false;   // this settling cycle's feet observer ran (ObserveFeet)
+  bool feet_known_ = false;
+  LostInputs lost_;           // what a fault's stop must do without (stop_class.h)   // this settling cycle's feet observer ran (ObserveFeet)
   MotionSequencer sequencer_;  // writes ref_ and joint_ref_
   IdOutput out_;
   IdStatus id_status_ = IdStatus::kOk;

@@ -155,7 +155,7 @@ TEST(HalConfigLoader, BadValuesNameFileLineKeyExpectedAndFound) {
   EXPECT_NE(m.find("range_deg': expected min < max, found '25', '-70'"), std::string::npos) << m;
 
   // renamed: the old key is refused with the new one's name, not silently ignored
-  m = ErrorAfterEdit("  max_held_cycles: 3", "  max_missed_cycles: 3");
+  m = ErrorAfterEdit("  max_held_cycles: 5", "  max_missed_cycles: 5");
   EXPECT_NE(m.find("key 'timing.max_missed_cycles': expected timing.max_held_cycles"),
             std::string::npos) << m;
 

@@ -121,7 +121,8 @@ TEST(HalCycle, SilentDeviceIsFlaggedDropsToSafeOpAndNeedsAnAcknowledgement) {
   const JointInput& kfe = im.joints[kLfKfe];
   EXPECT_EQ(kfe.status, InputStatus::kHeld);
   EXPECT_EQ(kfe.age_cycles, 1u);
-  EXPECT_EQ(kfe.position_rad, q_before) << "flagged, not refreshed";
+  // flagged, not refreshed: the last angle moved on by the last velocity for one period
+  EXPECT_NEAR(kfe.position_rad, q_before + 1e-3 * kfe.velocity_rad_s, 1e-12);
   for (int j = 0; j < kNumJoints; ++j)
     if (j != kLfKfe) {
       EXPECT_TRUE(im.joints[static_cast<std::size_t>(j)].valid()) << JointName(j);
@@ -129,7 +130,7 @@ TEST(HalCycle, SilentDeviceIsFlaggedDropsToSafeOpAndNeedsAnAcknowledgement) {
   EXPECT_EQ(rig.hal->bus(0).counters().missing, 1u);
   EXPECT_EQ(rig.hal->bus(0).counters().last_fault_node, 3);
   EXPECT_EQ(rig.Device(0, 2).state, DeviceState::kOp) << "up to max_held_cycles tolerated";
-  rig.Steps(3);
+  rig.Steps(DefaultHalConfig().timing.max_held_cycles);
   EXPECT_EQ(rig.Device(0, 2).state, DeviceState::kSafeOp);
   EXPECT_EQ(rig.Device(0, 2).error, DeviceError::kInputsLost);
   EXPECT_EQ(im.joints[kLfKfe].device_state, DeviceState::kSafeOp);
@@ -159,7 +160,8 @@ TEST(HalCycle, InputsAreHeldForMaxHeldCyclesThenTheDeviceLeavesOp) {
       (void)rig.Step();
       EXPECT_EQ(kfe.status, InputStatus::kHeld) << "cycle " << k;
       EXPECT_EQ(kfe.age_cycles, static_cast<std::uint32_t>(k));
-      EXPECT_EQ(kfe.position_rad, q_before) << "the last valid value is held";
+      EXPECT_NEAR(kfe.position_rad, q_before + k * 1e-3 * kfe.velocity_rad_s, 1e-12)
+          << "the last valid angle, moved on by the last velocity";
       EXPECT_EQ(rig.Device(0, 2).state, DeviceState::kOp) << "cycle " << k;
     }
     EXPECT_EQ(rig.Device(0, 2).counters.held, static_cast<std::uint64_t>(limit));
@@ -195,7 +197,8 @@ TEST(HalCycle, LateFrameIsCountedAndNeverUsed) {
   EXPECT_EQ(rig.Step(), HalStatus::kWorkingCounter);  // now the answer to the SYNC before arrives
   EXPECT_EQ(in.status, InputStatus::kHeld);
   EXPECT_EQ(in.age_cycles, 2u);
-  EXPECT_EQ(in.position_rad, q_before) << "the late frame's value was not used";
+  EXPECT_NEAR(in.position_rad, q_before + 2e-3 * in.velocity_rad_s, 1e-12)
+      << "the late frame's value was not used (the held angle moves on by the last velocity)";
   EXPECT_EQ(rig.hal->bus(3).counters().late, 1u);
   EXPECT_EQ(rig.Device(3, 1).counters.late, 1u);
   // back on time
@@ -268,7 +271,7 @@ TEST(HalCycle, EmulatorBusOffLosesTheLegAndTheReportSaysWho) {
   rig.emu->SetBusOff(2, true);
   EXPECT_TRUE(rig.emu->bus_off(2));
   EXPECT_EQ(rig.emu->counters(2).bus_off_events, 1u);
-  rig.Steps(5);
+  rig.Steps(DefaultHalConfig().timing.max_held_cycles + 2);
   for (int k = 0; k < 3; ++k) {
     EXPECT_EQ(rig.Device(2, k).state, DeviceState::kSafeOp);
     EXPECT_EQ(rig.hal->image().joints[static_cast<std::size_t>(6 + k)].status, InputStatus::kMissing);

@@ -403,7 +403,7 @@ sys.exit(0 if first and first[0]["reason"] == "input_missing" else 1)
 PY
     ;;
   fault)
-    spec=$1 reason=$2
+    spec=$1 reason=$2 stop=$3
     # the deadline policy relaxed: this run checks the reaction to the injected fault, and a
     # machine stall before it (seen: 5 cycles of 1.3-7.4 ms of thread CPU time in a row, in the
     # 0.2 s before the fault, on a loaded 2-core VM) would stop the daemon for its timing first
@@ -413,15 +413,27 @@ PY
     [[ $rc -eq 3 ]] || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "expected the daemon to stop in FAULT (exit 3), got $rc"; }
     [[ -s "$out/sim.json" ]] || fail "hyq-sim wrote no summary (did it crash?)"
     grep -q "Segmentation\|Aborted\|terminate called" "$out/servod.log" "$out/sim.log" && fail "a process crashed"
-    "$py" -c "import json; [print('hil_e2e_test: event', e['cycle'], e['time_s'], e['from'], '->', e['to'], e['reason'], e['detail']) for e in json.load(open('$out/servod.json'))['event_log'][:6]]"
-    # the first event that left ACTIVE: its reason and how long after the fault it came (the
-    # daemon's lock-step time and hyq-sim's simulated time both count SYNC periods from 0)
-    check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['reason'] == '$reason'"
+    "$py" -c "import json; [print('hil_e2e_test: event', e['cycle'], e['time_s'], e['from'], '->', e['to'], e['reason'], e['stop'], e['detail']) for e in json.load(open('$out/servod.json'))['event_log'][:8]]"
+    # the first fault in ACTIVE: its reason, its stop class (docs/servo.md, "Graded stops") and
+    # how long after the fault it came (the daemon's lock-step time and hyq-sim's simulated time
+    # both count SYNC periods from 0)
+    first="[e for e in s['event_log'] if e['from'] == 'active' and e['stop'] != 'none'][0]"
+    check_json "$first['reason'] == '$reason'"
+    check_json "$first['stop'] == '$stop'"
     # within 2 cycles of the fault reaching the daemon (one period of transport); a missing
-    # answer is first held for timing.max_held_cycles cycles (config/hyq_hal.yaml: 3, docs/hal.md)
+    # answer is first held for timing.max_held_cycles cycles (config/hyq_hal.yaml, docs/hal.md)
     held=0; [[ "$reason" == input_missing ]] && held=$(sed -n 's/^  max_held_cycles: *\([0-9]*\).*/\1/p' "$here/config/hyq_hal.yaml")
-    check_json "0.0 <= [e for e in s['event_log'] if e['from'] == 'active'][0]['time_s'] - 2.0 <= 0.0031 + 0.001 * $held"
-    check_json "[e for e in s['event_log'] if e['from'] == 'active'][0]['to'] == 'damping'"
+    check_json "0.0 <= $first['time_s'] - 2.0 <= 0.0031 + 0.001 * $held"
+    if [[ "$stop" == cut ]]; then
+      # category 0: damping at once
+      check_json "$first['to'] == 'damping'"
+    else
+      # category 1: the sit-down in ACTIVE, then its damping; the trunk down gently and upright
+      check_json "$first['to'] == 'active'"
+      check_json "any(e['from'] == 'active' and e['to'] == 'damping' and e['stop'] == '$stop' for e in s['event_log'])"
+      check_json 'sim["sat_down"] and not sim["fell"]'
+    fi
+    check_json 'sim["contact_speed_m_s"] <= 0.5'
     check_json 's["final_mode"] == "stopped"'
     decode_log
     grep -q "$reason" "$out/csv/HYQ_EVENT.csv" || fail "the event $reason is not in the LCM log"

@@ -291,12 +291,12 @@ TEST(MotionSequencer, SettleHoldsTheDampingUntilTheJointsRest) {
   EXPECT_NEAR(static_cast<double>(cycle) * kDt, c.settle_max_s, 1.5 * kDt);
 
   // a fault's damping: the configured one, not held
-  rig.in.damping_for_fault = true;
+  rig.in.damping_cut = true;
   step(1, 0.3);
   EXPECT_FALSE(rig.seq.settling());
   EXPECT_FALSE(rig.seq.holds_damping());
   // not damping (STOPPED): neither
-  rig.in.damping = rig.in.damping_for_fault = false;
+  rig.in.damping = rig.in.damping_cut = false;
   step(5, 0.3);
   EXPECT_FALSE(rig.seq.settling());
   EXPECT_FALSE(rig.seq.holds_damping());

@@ -252,6 +252,7 @@ nlohmann::json Summary(const hyq::servo::ServoLoop& loop, const hyq::servo::Serv
                           {"reason", hyq::servo::ToString(e.reason)},
                           {"joint", e.joint},
                           {"bus", e.bus},
+                          {"stop", hyq::servo::ToString(e.stop)},
                           {"detail", std::string(e.detail.data())}};
   };
   for (const auto& e : loop.first_events()) log.push_back(one(e));
