@@ -14,6 +14,12 @@ constexpr std::size_t kTxCapacity = 128;
 constexpr std::size_t kRxCapacity = 256;
 constexpr std::size_t kDelayedCapacity = 128;
 
+// a device that neither sends nor hears: silenced by a fault, or booting after a reset
+template <class D>
+bool Deaf(const D& d) noexcept {
+  return d.faults.silent || d.boot_at_ns >= 0;
+}
+
 std::int32_t Micro(double x) noexcept {
   const double v = std::clamp(x * 1e6, -2147483648.0, 2147483647.0);
   return std::isfinite(v) ? static_cast<std::int32_t>(std::lround(v)) : 0;
@@ -226,7 +232,7 @@ void Emulator::OnSync(BusState& b, std::uint8_t counter, bool answer) noexcept {
   b.delayed_size = keep;
   for (int index : b.devices) {
     Device& d = devices_[static_cast<std::size_t>(index)];
-    if (d.faults.silent || d.nmt != NmtState::kOperational) continue;
+    if (Deaf(d) || d.nmt != NmtState::kOperational) continue;
     // RPDO watchdog: outputs off after kRpdoWatchdogSyncs SYNCs without a set-point
     if (d.kind == DeviceKind::kActuator && d.enabled) {
       d.rpdo_missed = d.rpdo_since_sync ? 0 : d.rpdo_missed + 1;
@@ -257,7 +263,7 @@ void Emulator::HandleFrame(BusState& b, const CanFrame& f, bool answer_sync) noe
       }
       for (int index : b.devices) {
         Device& d = devices_[static_cast<std::size_t>(index)];
-        if ((node == 0 || node == d.node) && !d.faults.silent) Nmt(d, cmd);
+        if ((node == 0 || node == d.node) && !Deaf(d)) Nmt(d, cmd);
       }
       return;
     }
@@ -274,7 +280,7 @@ void Emulator::HandleFrame(BusState& b, const CanFrame& f, bool answer_sync) noe
       const int local = b.node_to_device[a.node];
       if (local < 0) return;
       Device& d = devices_[static_cast<std::size_t>(b.devices[static_cast<std::size_t>(local)])];
-      if (d.faults.silent || d.kind != DeviceKind::kActuator) return;
+      if (Deaf(d) || d.kind != DeviceKind::kActuator) return;
       ActuatorRpdo p;
       if (DecodeActuatorRpdo(f, d.node, &p) != PdoStatus::kOk) {
         ++b.counters.malformed_rx;
@@ -335,7 +341,8 @@ void Emulator::Poll(std::int64_t now_ns) noexcept {
     }
     for (int index : b.devices) {
       Device& d = devices_[static_cast<std::size_t>(index)];
-      if (d.faults.silent) continue;
+      if (d.boot_at_ns >= 0 && now_ns >= d.boot_at_ns) d.boot_at_ns = -1;  // booted: boot-up below
+      if (Deaf(d)) continue;
       CheckSetpointTimer(b, d, now_ns);
       CheckMasterHeartbeat(b, d, now_ns);
       if (b.recovered) {
@@ -484,6 +491,49 @@ void Emulator::ResetBus(int bus) noexcept {
   if (bus < 0 || bus >= static_cast<int>(buses_.size())) return;
   for (int index : buses_[static_cast<std::size_t>(bus)].devices)
     Nmt(devices_[static_cast<std::size_t>(index)], NmtCommand::kResetNode);
+}
+
+// A reset: the board as after power-on (Device's defaults: PRE-OPERATIONAL, boot-up owed, no
+// set-point, not enabled, nothing latched), silent until its boot time has passed. What it keeps
+// is not its state: its identity, the plant's values it reports, the injected faults, and the
+// run's records (RPDOs received, its last trip). The frames it held back are gone with its CAN
+// controller's state.
+void Emulator::Reset(Device& d, std::int64_t boot_ns) noexcept {
+  Device fresh;
+  fresh.kind = d.kind;
+  fresh.node = d.node;
+  fresh.joint = d.joint;
+  fresh.bus = d.bus;
+  fresh.rpdos = d.rpdos;
+  fresh.trip_ns = d.trip_ns;
+  fresh.trip_delay_ns = d.trip_delay_ns;
+  fresh.position_counts = d.position_counts;
+  fresh.velocity_counts_s = d.velocity_counts_s;
+  fresh.effort_counts = d.effort_counts;
+  fresh.gyro_urad_s = d.gyro_urad_s;
+  fresh.accel_um_s2 = d.accel_um_s2;
+  fresh.faults = d.faults;
+  fresh.boot_at_ns = now_ns_ + std::max<std::int64_t>(boot_ns, 0);
+  d = fresh;
+  BusState& b = buses_[static_cast<std::size_t>(d.bus)];
+  std::size_t keep = 0;
+  for (std::size_t i = 0; i < b.delayed_size; ++i)
+    if ((b.delayed[i].frame.id & 0x7Fu) != d.node) b.delayed[keep++] = b.delayed[i];
+  b.delayed_size = keep;
+  ++b.counters.resets;
+}
+
+void Emulator::ResetJointBoard(int joint, std::int64_t boot_ns) noexcept {
+  if (Device* d = JointDevice(joint)) Reset(*d, boot_ns);
+}
+
+void Emulator::ResetImu(std::int64_t boot_ns) noexcept {
+  if (imu_device_ >= 0) Reset(devices_[static_cast<std::size_t>(imu_device_)], boot_ns);
+}
+
+bool Emulator::booting(int joint) const noexcept {
+  const Device* d = JointDevice(joint);
+  return d != nullptr && d->boot_at_ns >= 0;
 }
 
 const EmulatorCounters& Emulator::counters(int bus) const noexcept {

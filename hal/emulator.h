@@ -10,7 +10,9 @@
 // outputs after kRpdoWatchdogSyncs SYNCs without set-points (EMCY 0x8250); and on the board's own
 // timer, whether SYNCs come or not, a board in OPERATIONAL without a SYNC, or with outputs on
 // without a set-point, for timing.device_setpoint_timeout_s sets 0 N·m, sends EMCY 0x8250 and
-// drops to PRE-OPERATIONAL (a dead master leaves no torque on the joints).
+// drops to PRE-OPERATIONAL (a dead master leaves no torque on the joints). A reset of the board
+// itself (a power glitch, its watchdog: ResetJointBoard, ResetImu) turns its outputs off at once,
+// silences it for its boot time and then boots it as after power-on.
 //
 // Poll() never allocates (fixed queues sized at construction). Single-threaded.
 #pragma once
@@ -65,6 +67,7 @@ struct EmulatorCounters {
   std::uint64_t heartbeat_trips = 0;    // boards that tripped because the master's heartbeat stopped
   std::uint64_t superseded_syncs = 0;   // SYNCs left unanswered: a newer one was already waiting
                                         // (only with SetAnswerNewestSyncOnly)
+  std::uint64_t resets = 0;             // devices reset (ResetJointBoard, ResetImu)
 };
 
 class Emulator {
@@ -119,6 +122,17 @@ class Emulator {
   bool bus_off(int bus) const noexcept;
   /// Power-cycles every device on `bus` (boot-up, PRE-OPERATIONAL, outputs off).
   void ResetBus(int bus) noexcept;
+  /// A reset of joint's board (a power glitch or its watchdog): its outputs off at once (0 N·m,
+  /// not enabled); silent, sending nothing and hearing nothing (NMT, SYNC, RPDO), until boot_ns
+  /// after the last Poll's time; then, at the first Poll from then on, its boot-up message and
+  /// PRE-OPERATIONAL as after power-on: no set-point, not enabled, no fault or watchdog latched,
+  /// no EMCY owed, answering NMT again. The injected DeviceFaults stay (they are the hardware's:
+  /// a broken load cell is broken after a reset too), and so do the plant's values.
+  void ResetJointBoard(int joint, std::int64_t boot_ns) noexcept;
+  /// The same for the IMU.
+  void ResetImu(std::int64_t boot_ns) noexcept;
+  /// Whether joint's board is silent after a reset, still booting.
+  bool booting(int joint) const noexcept;
 
   const EmulatorCounters& counters(int bus) const noexcept;
 
@@ -130,6 +144,7 @@ class Emulator {
     int bus = 0;
     NmtState nmt = NmtState::kPreOperational;
     bool boot_pending = true;     // send the boot-up message at the next Poll
+    std::int64_t boot_at_ns = -1; // >= 0: reset, silent until this Poll time, then boots
     bool enabled = false;
     bool fault = false;
     bool watchdog = false;
@@ -179,6 +194,7 @@ class Emulator {
   void OnSync(BusState& b, std::uint8_t counter, bool answer) noexcept;
   void Answer(BusState& b, Device& d, std::uint8_t counter) noexcept;
   void Nmt(Device& d, NmtCommand cmd) noexcept;
+  void Reset(Device& d, std::int64_t boot_ns) noexcept;
   void CheckSetpointTimer(BusState& b, Device& d, std::int64_t now_ns) noexcept;
   void CheckMasterHeartbeat(BusState& b, Device& d, std::int64_t now_ns) noexcept;
   void Queue(BusState& b, const CanFrame& f) noexcept;

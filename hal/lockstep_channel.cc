@@ -40,14 +40,29 @@ CanStatus LockstepChannel::Receive(std::span<CanFrame> out,
   }
   std::size_t more = 0;
   const CanStatus st = inner_->Receive(out.subspan(n), &more);
-  *received = n + more;
+  *received = n + TakePlantClock(out.data() + n, more);
   return st;
+}
+
+std::size_t LockstepChannel::TakePlantClock(CanFrame* frames, std::size_t n) noexcept {
+  std::size_t kept = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    PlantClock c;
+    if (frames[i].id == cob::kPlantClock && DecodePlantClock(frames[i], &c) == PdoStatus::kOk) {
+      plant_stalled_steps_ = std::max(plant_stalled_steps_, c.stalled_steps);
+      continue;
+    }
+    if (kept != i) frames[kept] = frames[i];
+    ++kept;
+  }
+  return kept;
 }
 
 int LockstepChannel::Pump() noexcept {
   if (tail_ < buffer_.size()) {
     std::size_t n = 0;
     (void)inner_->Receive(std::span(buffer_).subspan(tail_), &n);
+    n = TakePlantClock(buffer_.data() + tail_, n);
     for (std::size_t i = tail_; i < tail_ + n; ++i) {
       const CanFrame& f = buffer_[i];
       if (f.is_extended() || f.is_error() || (f.id & 0x780u) != cob::kTpdo1) continue;

@@ -3,7 +3,8 @@
 // the TPDOs that carry the counter of the last SYNC sent through it (a late answer to an earlier
 // SYNC is not an answer to this one); Receive() hands the HAL exactly the same frames, in order. Used by the daemon's
 // lock-step clock (servo/runtime/servo_runner.h) and the virtual-bus test rig. Never allocates after
-// construction.
+// construction. A simulated plant's clock frame (hal::PlantClock: the plant ran periods without
+// the master) is the lock-step clock's, not the HAL's: both paths take it out and keep its count.
 #pragma once
 
 #include <bitset>
@@ -37,6 +38,9 @@ class LockstepChannel : public CanChannel {
   bool has_tpdo_from(std::uint8_t node) const noexcept { return node < 128 && tpdo_nodes_[node]; }
   /// Frames buffered by Pump and not yet received.
   std::size_t buffered() const noexcept { return tail_ - head_; }
+  /// The most steps the simulated plant on this bus says it took without the master (its
+  /// PlantClock frames; 0 without any), whichever path read them.
+  std::uint32_t plant_stalled_steps() const noexcept { return plant_stalled_steps_; }
 
  private:
   std::unique_ptr<CanChannel> inner_;
@@ -45,6 +49,10 @@ class LockstepChannel : public CanChannel {
   int tpdos_ = 0;
   std::bitset<128> tpdo_nodes_;  // CANopen node ids with a buffered TPDO
   std::uint8_t sync_counter_ = 0;  // of the last SYNC sent; 0: none yet
+  std::uint32_t plant_stalled_steps_ = 0;
+
+  // removes the plant's clock frames from frames[0, n) (keeping its count); returns the rest's n
+  std::size_t TakePlantClock(CanFrame* frames, std::size_t n) noexcept;
 };
 
 class Hal;

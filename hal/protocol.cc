@@ -175,6 +175,13 @@ CanFrame EncodeImuTpdo(std::uint8_t node, const ImuTpdo& p) noexcept {
   return f;
 }
 
+CanFrame EncodePlantClock(const PlantClock& c) noexcept {
+  CanFrame f = MakeFrame(cob::kPlantClock, kPlantClockLen);
+  PutI32(&f.data[0], static_cast<std::int32_t>(c.steps));
+  PutI32(&f.data[4], static_cast<std::int32_t>(c.stalled_steps));
+  return f;
+}
+
 PdoStatus DecodeNmt(const CanFrame& f, NmtCommand* cmd, std::uint8_t* node) noexcept {
   if (const PdoStatus s = CheckFrame(f, cob::kNmt, kNmtLen); s != PdoStatus::kOk) return s;
   const std::uint8_t c = f.data[0];
@@ -207,6 +214,14 @@ PdoStatus DecodeEmcy(const CanFrame& f, std::uint8_t node, EmcyMessage* m) noexc
   m->code = GetU16(&f.data[0]);
   m->error_register = f.data[2];
   std::memcpy(m->vendor.data(), &f.data[3], m->vendor.size());
+  return PdoStatus::kOk;
+}
+
+PdoStatus DecodePlantClock(const CanFrame& f, PlantClock* c) noexcept {
+  if (const PdoStatus s = CheckFrame(f, cob::kPlantClock, kPlantClockLen); s != PdoStatus::kOk)
+    return s;
+  c->steps = static_cast<std::uint32_t>(GetI32(&f.data[0]));
+  c->stalled_steps = static_cast<std::uint32_t>(GetI32(&f.data[4]));
   return PdoStatus::kOk;
 }
 

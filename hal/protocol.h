@@ -23,6 +23,9 @@ inline constexpr std::uint32_t kTpdo1 = 0x180, kTpdo2 = 0x280, kTpdo3 = 0x380, k
 inline constexpr std::uint32_t kRpdo1 = 0x200, kRpdo2 = 0x300, kRpdo3 = 0x400, kRpdo4 = 0x500;
 inline constexpr std::uint32_t kSdoTx = 0x580, kSdoRx = 0x600;
 inline constexpr std::uint32_t kHeartbeat = 0x700;
+/// Lock-step simulation only: the plant's clock (PlantClock), on CiA 301's TIME identifier, which
+/// HyQ's buses do not use otherwise.
+inline constexpr std::uint32_t kPlantClock = 0x100;
 }  // namespace cob
 
 inline constexpr std::uint8_t kMinNodeId = 1;
@@ -40,6 +43,7 @@ inline constexpr std::uint8_t kEmcyLen = 8;
 inline constexpr std::uint8_t kActuatorTpdoLen = 16;
 inline constexpr std::uint8_t kActuatorRpdoLen = 8;
 inline constexpr std::uint8_t kImuTpdoLen = 32;
+inline constexpr std::uint8_t kPlantClockLen = 8;
 
 enum class FrameKind : std::uint8_t {
   kNmt, kSync, kEmcy, kTpdo1, kTpdo2, kTpdo3, kTpdo4, kRpdo1, kRpdo2, kRpdo3, kRpdo4,
@@ -131,6 +135,16 @@ struct EmcyMessage {
   std::array<std::uint8_t, 5> vendor{};
 };
 
+/// Lock-step simulation only: what the plant's simulator (hyq-sim) tells the master on every bus
+/// after its plant ran periods without the master's SYNCs (an injected stall of the master), ahead
+/// of its next answers. In lock-step the plant is the only clock, so a master that stalled learns
+/// from it the periods it lost. Not a device's frame (no node id); the master's lock-step channel
+/// (hal/lockstep_channel.h) takes it out before the HAL's Read. 8 bytes, little-endian.
+struct PlantClock {
+  std::uint32_t steps = 0;          // 0..3 the plant's steps so far
+  std::uint32_t stalled_steps = 0;  // 4..7 of those, the steps taken without the master, so far
+};
+
 enum class [[nodiscard]] PdoStatus : std::uint8_t {
   kOk,
   kWrongId,      // not the identifier this decoder expects
@@ -148,6 +162,7 @@ CanFrame EncodeEmcy(std::uint8_t node, const EmcyMessage& m) noexcept;
 CanFrame EncodeActuatorTpdo(std::uint8_t node, const ActuatorTpdo& p) noexcept;
 CanFrame EncodeActuatorRpdo(std::uint8_t node, const ActuatorRpdo& p) noexcept;
 CanFrame EncodeImuTpdo(std::uint8_t node, const ImuTpdo& p) noexcept;
+CanFrame EncodePlantClock(const PlantClock& c) noexcept;
 
 PdoStatus DecodeNmt(const CanFrame& f, NmtCommand* cmd, std::uint8_t* node) noexcept;
 PdoStatus DecodeSync(const CanFrame& f, std::uint8_t* counter) noexcept;
@@ -156,6 +171,7 @@ PdoStatus DecodeEmcy(const CanFrame& f, std::uint8_t node, EmcyMessage* m) noexc
 PdoStatus DecodeActuatorTpdo(const CanFrame& f, std::uint8_t node, ActuatorTpdo* p) noexcept;
 PdoStatus DecodeActuatorRpdo(const CanFrame& f, std::uint8_t node, ActuatorRpdo* p) noexcept;
 PdoStatus DecodeImuTpdo(const CanFrame& f, std::uint8_t node, ImuTpdo* p) noexcept;
+PdoStatus DecodePlantClock(const CanFrame& f, PlantClock* c) noexcept;
 
 /// The SYNC counter a TPDO1 answers (ActuatorTpdo byte 14 or ImuTpdo byte 26, told apart by
 /// length), without decoding the rest; 0 for a frame of neither layout.

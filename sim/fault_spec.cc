@@ -1,6 +1,7 @@
 #include "sim/fault_spec.h"
 
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <stdexcept>
 #include <vector>
@@ -15,6 +16,8 @@ const char* ToString(FaultSpec::Kind k) noexcept {
     case FaultSpec::Kind::kNan: return "nan";
     case FaultSpec::Kind::kBusOff: return "bus-off";
     case FaultSpec::Kind::kEmcy: return "emcy";
+    case FaultSpec::Kind::kReset: return "reset";
+    case FaultSpec::Kind::kStall: return "stall";
   }
   return "?";
 }
@@ -46,9 +49,15 @@ FaultSpec ParseFaultSpec(const std::string& text, const hal::HalConfig& config) 
   else if (kind == "nan") f.kind = FaultSpec::Kind::kNan;
   else if (kind == "bus-off") f.kind = FaultSpec::Kind::kBusOff;
   else if (kind == "emcy") f.kind = FaultSpec::Kind::kEmcy;
-  else fail("expected a kind silent|corrupt|drop|nan|bus-off|emcy, found '" + kind + "'");
+  else if (kind == "reset") f.kind = FaultSpec::Kind::kReset;
+  else if (kind == "stall") f.kind = FaultSpec::Kind::kStall;
+  else fail("expected a kind silent|corrupt|drop|nan|bus-off|emcy|reset|stall, found '" + kind + "'");
   const std::string& target = part[2];
-  if (f.kind == FaultSpec::Kind::kBusOff) {
+  if (f.kind == FaultSpec::Kind::kStall) {
+    if (target != "daemon") fail("expected the target daemon for stall, found '" + target + "'");
+    if (part.size() != 4)
+      fail("expected a stall in seconds (T:stall:daemon:S), found no duration");
+  } else if (f.kind == FaultSpec::Kind::kBusOff) {
     std::string names;
     for (std::size_t b = 0; b < config.buses.size(); ++b) {
       if (config.buses[b].name == target) f.bus = static_cast<int>(b);
@@ -66,6 +75,7 @@ FaultSpec ParseFaultSpec(const std::string& text, const hal::HalConfig& config) 
     if (f.joint == FaultSpec::kImuTarget && f.kind == FaultSpec::Kind::kEmcy)
       fail("expected an actuator board for emcy, found the IMU");
   }
+  if (f.kind == FaultSpec::Kind::kReset) f.duration_s = kDefaultBootTimeS;
   if (part.size() == 4) {
     const std::string& a = part[3];
     switch (f.kind) {
@@ -88,6 +98,23 @@ FaultSpec ParseFaultSpec(const std::string& text, const hal::HalConfig& config) 
         if (a.empty() || *end != '\0' || c < 0 || c > 0xFFFF)
           fail("expected an EMCY code 0..0xFFFF, found '" + a + "'");
         f.emcy_code = static_cast<std::uint16_t>(c);
+        break;
+      }
+      case FaultSpec::Kind::kReset:
+        f.duration_s = std::strtod(a.c_str(), &end);
+        if (a.empty() || *end != '\0' || !(f.duration_s >= 0) || !std::isfinite(f.duration_s))
+          fail("expected a boot time in seconds >= 0, found '" + a + "'");
+        break;
+      case FaultSpec::Kind::kStall: {
+        // whole cycles: the plant steps once per period
+        const double period_s = config.timing.cycle_period_s;
+        char period[32];
+        std::snprintf(period, sizeof period, "%g", period_s);
+        f.duration_s = std::strtod(a.c_str(), &end);
+        if (a.empty() || *end != '\0' || !std::isfinite(f.duration_s) ||
+            !(f.duration_s >= period_s - 1e-12) || f.duration_s > 60.0)
+          fail(std::string("expected a stall in seconds from the cycle period (") + period +
+               ") to 60, found '" + a + "'");
         break;
       }
       case FaultSpec::Kind::kNan: fail("expected no argument for nan, found '" + a + "'");

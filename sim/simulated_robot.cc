@@ -67,7 +67,8 @@ dynamics::VectorQ StartQ(const dynamics::Model& model, const Plant& plant, doubl
 
 /// The device side of one bus, counting the SYNCs that arrive (even those the emulator ignores,
 /// e.g. while its bus is off), so that lock-step follows the master's SYNCs on the wire.
-/// In lock-step it passes nothing on while a step is due: the emulator answers each bus in turn
+/// In lock-step it passes nothing on while a step is due, nor during a stall of the master
+/// (its frames wait, as a stalled master would not have sent them yet): the emulator answers each bus in turn
 /// within one Poll, so the master, once the last bus's answer to SYNC k−1 is out, may send its
 /// cycle k (set-points and SYNC k) on a bus the same Poll has still to read; read then, that
 /// SYNC would be answered with the state before step k−1 and those set-points would act in it,
@@ -79,7 +80,7 @@ class SimulatedRobot::SyncCounter final : public hal::CanChannel {
     return inner_->Send(f, sent);
   }
   hal::CanStatus Receive(std::span<hal::CanFrame> out, std::size_t* received) noexcept override {
-    if (robot_->polling_lockstep_ && robot_->StepDue()) {
+    if (robot_->stalling_ || (robot_->polling_lockstep_ && robot_->StepDue())) {
       *received = 0;
       return hal::CanStatus::kOk;
     }
@@ -192,9 +193,11 @@ void SimulatedRobot::ApplyFaults(double t_s) noexcept {
   const double t = t_s + 1e-9;
   for (std::size_t i = 0; i < faults_.size(); ++i) {
     const FaultSpec& f = faults_[i];
+    if (f.kind == FaultSpec::Kind::kStall) continue;  // the lock-step's (RunDueStall)
     std::uint8_t& st = fault_state_[i];
     if (st == 0 && t >= f.t_s) {
-      st = f.duration_s > 0 ? 1 : 2;
+      const bool ends = f.kind == FaultSpec::Kind::kSilent || f.kind == FaultSpec::Kind::kBusOff;
+      st = ends && f.duration_s > 0 ? 1 : 2;
       ++counters_.faults_injected;
       hal::DeviceFaults& x =
           f.joint == FaultSpec::kImuTarget ? emulator_->imu_faults() : emulator_->joint_faults(f.joint);
@@ -210,6 +213,15 @@ void SimulatedRobot::ApplyFaults(double t_s) noexcept {
           break;
         case FaultSpec::Kind::kBusOff: emulator_->SetBusOff(f.bus, true); break;
         case FaultSpec::Kind::kEmcy: emulator_->SendJointEmcy(f.joint, f.emcy_code); break;
+        case FaultSpec::Kind::kReset: {
+          // the boot time on the boards' clock (simulated time in lock-step, the wall clock
+          // with the bus thread), from the emulator's last Poll
+          const std::int64_t boot_ns = std::llround(f.duration_s * 1e9);
+          if (f.joint == FaultSpec::kImuTarget) emulator_->ResetImu(boot_ns);
+          else emulator_->ResetJointBoard(f.joint, boot_ns);
+          break;
+        }
+        case FaultSpec::Kind::kStall: break;
       }
     } else if (st == 1 && t >= f.t_s + f.duration_s) {
       st = 2;
@@ -364,17 +376,54 @@ std::uint64_t SimulatedRobot::StepTarget(std::uint64_t* lo) const noexcept {
   return std::max(l, hi > kMaxSyncLead ? hi - kMaxSyncLead : 0);
 }
 
-bool SimulatedRobot::StepDue() const noexcept { return counters_.steps < StepTarget(nullptr); }
+bool SimulatedRobot::StepDue() const noexcept { return SyncedSteps() < StepTarget(nullptr); }
+
+// A stall of the master due now (FaultSpec::Kind::kStall), between two SYNCs: every SYNC seen so
+// far has been answered and stepped, the master's next cycle is not read yet. The plant steps on
+// for the stall's whole periods with what the boards hold; the boards' own timers run on the
+// simulated time (Poll with nothing read), so a board trips as a real one does when no SYNC
+// comes for timing.device_setpoint_timeout_s. Then every bus carries the plant's clock frame
+// (hal::PlantClock), ahead of the answers to the master's next SYNC, so that the master knows
+// of the periods it lost before it reads them.
+int SimulatedRobot::RunDueStall() noexcept {
+  int steps = 0;
+  for (std::size_t i = 0; i < faults_.size(); ++i) {
+    const FaultSpec& f = faults_[i];
+    if (f.kind != FaultSpec::Kind::kStall || fault_state_[i] != 0 || time_s() + 1e-9 < f.t_s)
+      continue;
+    fault_state_[i] = 2;
+    ++counters_.faults_injected;
+    const std::int64_t n = std::max<std::int64_t>(
+        1, std::llround(f.duration_s * 1e9 / static_cast<double>(period_ns_)));
+    stalling_ = true;
+    for (std::int64_t k = 0; k < n; ++k) {
+      Poll(time_ns());
+      Step();
+    }
+    stalling_ = false;
+    steps += static_cast<int>(n);
+    counters_.stalled_steps += static_cast<std::uint64_t>(n);
+    hal::PlantClock c;
+    c.steps = static_cast<std::uint32_t>(counters_.steps);
+    c.stalled_steps = static_cast<std::uint32_t>(counters_.stalled_steps);
+    const hal::CanFrame frame = hal::EncodePlantClock(c);
+    for (const auto& channel : channels_) {
+      std::size_t sent = 0;
+      (void)channel->Send(std::span(&frame, 1), &sent);
+    }
+  }
+  return steps;
+}
 
 int SimulatedRobot::PollLockStep() noexcept {
+  int steps = RunDueStall();
   polling_lockstep_ = true;
   Poll(time_ns());
   polling_lockstep_ = false;
-  int steps = 0;
   for (;;) {
     std::uint64_t lo = 0;
-    if (counters_.steps >= StepTarget(&lo)) break;
-    if (lo <= counters_.steps) ++counters_.lockstep_forced;
+    if (SyncedSteps() >= StepTarget(&lo)) break;
+    if (lo <= SyncedSteps()) ++counters_.lockstep_forced;
     Step();
     ++steps;
   }

@@ -26,7 +26,8 @@
 //  - hold: until every actuator board has its outputs enabled, the robot is held at its standing
 //    posture (the state is reset every step, as on its stand); the IMU reads rest.
 //  - faults at simulated times (FaultSpec, sim/fault_spec.h): silent board, corrupt /
-//    dropped TPDOs, broken sensor, bus-off, EMCY.
+//    dropped TPDOs, broken sensor, bus-off, EMCY, a board's reset; in lock-step, a stall of the
+//    master (the plant steps on without its SYNCs, then tells it the periods it lost).
 //
 // Lock-step (deterministic): PollLockStep() drains the channels through the emulator at simulated
 // time; the emulator answers each SYNC with the current state; when the SYNC of cycle k has been
@@ -96,6 +97,7 @@ struct SimulatedRobotCounters {
   std::uint64_t held_steps = 0;
   std::uint64_t lockstep_forced = 0;     // steps taken because one bus fell kMaxSyncLead behind
   std::uint64_t faults_injected = 0;
+  std::uint64_t stalled_steps = 0;       // steps taken while the master stalled (FaultSpec kStall)
   std::array<std::uint64_t, hal::kMaxBuses> syncs{};  // per bus, seen on the wire
 };
 
@@ -124,6 +126,8 @@ class SimulatedRobot {
   SimulatedRobot(const SimulatedRobot&) = delete;
   SimulatedRobot& operator=(const SimulatedRobot&) = delete;
 
+  /// At f.t_s of simulated time. A stall of the master (kStall) happens only in lock-step
+  /// (PollLockStep); real time has no such fault here (a stalled daemon is the daemon's own).
   void ScheduleFault(const FaultSpec& f);
   /// Called at the end of every Step (truth recording, progress); set before running.
   void SetStepObserver(std::function<void(const SimulatedRobot&)> observer) {
@@ -132,7 +136,8 @@ class SimulatedRobot {
 
   // --- lock-step ------------------------------------------------------------------------------
   /// Drains every channel (Emulator::Poll at the simulated time) and steps the physics once per
-  /// SYNC seen on every bus. Returns the steps taken. Never blocks.
+  /// SYNC seen on every bus; first, a stall of the master that is due (FaultSpec kStall: its
+  /// steps, then the plant's clock frame on every bus). Returns the steps taken. Never blocks.
   int PollLockStep() noexcept;
   /// Blocks in poll() on the channels' fds (at most timeout_ms) until something arrives, then
   /// PollLockStep(). Returns the steps taken (0 on timeout). Channels without an fd: no wait.
@@ -206,9 +211,13 @@ class SimulatedRobot {
  private:
   class SyncCounter;
   /// The steps the SYNCs seen so far call for; *lo (if given): the fewest SYNCs of any bus.
+  /// They are counted against SyncedSteps(): a stall's steps answer no SYNC.
   std::uint64_t StepTarget(std::uint64_t* lo) const noexcept;
   /// A step is due (StepTarget above the steps taken).
   bool StepDue() const noexcept;
+  std::uint64_t SyncedSteps() const noexcept { return counters_.steps - counters_.stalled_steps; }
+  /// Lock-step: the master's stall due now, if any (FaultSpec kStall); returns the steps taken.
+  int RunDueStall() noexcept;
   void UpdateSensors() noexcept;
   double Gaussian() noexcept;
 
@@ -224,6 +233,7 @@ class SimulatedRobot {
   std::unique_ptr<hal::Emulator> emulator_;
   BoardBus* bus_ = nullptr;  // real time: the boards' own thread, when it runs
   bool polling_lockstep_ = false;  // inside PollLockStep's Poll: SyncCounter holds frames back
+  bool stalling_ = false;          // inside a stall of the master: SyncCounter holds frames back
   SetpointFrame setpoints_;  // the stepping thread's newest
   std::atomic<std::int64_t> sim_now_ns_{0};   // simulated time, for the bus thread's faults
   std::atomic<std::int64_t> last_sync_ns_{0};  // real time: when the newest SYNC was seen

@@ -6,6 +6,9 @@
 // cannot hurt it: there the misses are counted and reported, and stop the daemon only with
 // stop_in_lockstep (on a VM the thread's CPU time includes what the host stole from the vCPU:
 // seen on the CI machine, 8 cycles in a row of 1-14 ms while a JVM started beside the run).
+// A stall the plant reports in lock-step (AddStall: the simulated plant stepped on without this
+// loop, hal::PlantClock) is different: there the plant did not wait, as in real time, so its lost
+// periods are misses in a row and a fault at the limit whatever stop_in_lockstep says.
 #pragma once
 
 #include <cstdint>
@@ -38,7 +41,11 @@ class DeadlineMonitor {
 
   /// One cycle's work `used_ns` (and its wall time `total_ns`, for the fault's detail); a fault
   /// once the misses in a row reach the limit (and every cycle after, until one fits), if enforced.
+  /// Periods lost to a stall since the last call (AddStall) count first, each a miss in a row
+  /// before this cycle, and reaching the limit with them is a fault even when not enforced.
   Fault Observe(std::int64_t used_ns, std::int64_t total_ns) noexcept;
+  /// Lock-step: the plant ran `periods` periods without this loop (a stall), for the next Observe.
+  void AddStall(std::uint32_t periods) noexcept { stalled_ += periods; }
 
   std::int64_t budget_ns() const noexcept { return budget_ns_; }
   std::uint64_t misses() const noexcept { return misses_; }
@@ -51,6 +58,7 @@ class DeadlineMonitor {
   bool enforce_;
   std::uint64_t misses_ = 0;
   std::uint32_t consecutive_ = 0, max_consecutive_ = 0;
+  std::uint32_t stalled_ = 0;  // periods lost to a stall, not yet observed
 };
 
 }  // namespace hyq::servo

@@ -125,6 +125,13 @@ class ServoLoop {
 
   /// The runner skipped `n` periods to get back on schedule.
   void CountSkipped(std::uint64_t n) noexcept { stats_.skipped_cycles += n; }
+  /// Lock-step: the plant ran `n` periods without this loop (a stall the simulator injected,
+  /// hal::PlantClock): skipped periods, and misses in a row at the next cycle's deadline check,
+  /// a deadline_miss fault at the limit even without deadline.stop_in_lockstep.
+  void CountStall(std::uint32_t n) noexcept {
+    CountSkipped(n);
+    deadline_.AddStall(n);
+  }
 
   /// Fault injection: the next `cycles` cycles each take `extra_ns` longer (busy wait).
   void InjectOverrun(std::int64_t extra_ns, int cycles) noexcept {

@@ -14,6 +14,17 @@ namespace hyq::servo {
 
 // --- lock-step ---------------------------------------------------------------------------------
 
+namespace {
+
+// the steps the simulated plant took without this loop so far (the newest any bus reported)
+std::uint32_t PlantStalledSteps(std::span<LockstepChannel* const> channels) noexcept {
+  std::uint32_t n = 0;
+  for (const LockstepChannel* c : channels) n = std::max(n, c->plant_stalled_steps());
+  return n;
+}
+
+}  // namespace
+
 std::int64_t BringUp(hal::Hal& hal, const ServoConfig& config,
                      std::span<LockstepChannel* const> channels,
                      const std::function<bool()>& abort) {
@@ -76,6 +87,10 @@ void RunLockstep(ServoLoop& loop, const hal::Hal& hal, const ServoConfig& config
   int short_waits = 0;
   const auto long_ns = static_cast<std::int64_t>(config.lockstep_timeout_s * 1e9);
   const auto short_ns = static_cast<std::int64_t>(config.lockstep_short_timeout_s * 1e9);
+  // a simulated plant that stepped on without this loop (a stall it injected) says so ahead of its
+  // answers (hal::PlantClock): those periods are lost, as a stalled thread loses them in real
+  // time; the clock jumps over them and the deadline monitor counts them
+  std::uint32_t stalled_seen = PlantStalledSteps(channels);
   while (!loop.finished()) {
     now += period;
     loop.Cycle(now, 0);
@@ -83,6 +98,12 @@ void RunLockstep(ServoLoop& loop, const hal::Hal& hal, const ServoConfig& config
                                         std::min<std::int64_t>(short_ns, 1'000'000));
     if (!complete) short_waits = 1000;
     else if (short_waits > 0) --short_waits;
+    const std::uint32_t stalled = PlantStalledSteps(channels);
+    if (stalled > stalled_seen) {
+      now += static_cast<std::int64_t>(stalled - stalled_seen) * period;
+      loop.CountStall(stalled - stalled_seen);
+      stalled_seen = stalled;
+    }
   }
 }
 

@@ -7,7 +7,9 @@
 //  - lock-step: virtual time (cycle × period). After each cycle's SYNC the runner waits until
 //    every device that owes an answer has answered (or a wall-clock timeout passes) and runs the
 //    next cycle at once: with a simulator that steps once per SYNC the closed loop is
-//    deterministic and runs as fast as both sides compute.
+//    deterministic and runs as fast as both sides compute. A simulator that stepped on without
+//    the loop (an injected stall; hal::PlantClock) moves the virtual time over those periods, and
+//    the loop counts them as skipped and as deadline misses (ServoLoop::CountStall).
 #pragma once
 
 #include <cstdint>

@@ -133,4 +133,31 @@ TEST(LockstepChannel, CountsOnlyAnswersToTheLastSync) {
   EXPECT_EQ(n, 4u);  // the HAL still gets every frame, late ones included
 }
 
+// A simulated plant's clock (hal::PlantClock) is the lock-step clock's: taken out before the HAL
+// whether Pump or Receive reads it first, its count kept (the newest: the largest), the frames
+// around it passed on in order.
+TEST(LockstepChannel, TakesThePlantClockOutOnBothPaths) {
+  LoopbackBus bus("t", 2, 16, true);
+  LockstepChannel ls(std::make_unique<EndpointView>(bus.endpoint(0)));
+  std::size_t sent = 0;
+  ActuatorTpdo a;
+  a.sync_counter = 1;
+  const std::array<CanFrame, 3> pumped{EncodeHeartbeat(3, NmtState::kOperational),
+                                       EncodePlantClock({1000, 19}), EncodeActuatorTpdo(3, a)};
+  ASSERT_EQ(bus.endpoint(1).Send(pumped, &sent), CanStatus::kOk);
+  EXPECT_EQ(ls.Pump(), 1);
+  EXPECT_EQ(ls.plant_stalled_steps(), 19u);
+  EXPECT_EQ(ls.buffered(), 2u);
+  const std::array<CanFrame, 2> direct{EncodePlantClock({1100, 24}), EncodeSync(2)};
+  ASSERT_EQ(bus.endpoint(1).Send(direct, &sent), CanStatus::kOk);
+  std::array<CanFrame, 8> rx;
+  std::size_t n = 0;
+  EXPECT_EQ(ls.Receive(rx, &n), CanStatus::kOk);
+  ASSERT_EQ(n, 3u);
+  EXPECT_EQ(rx[0].id, cob::kHeartbeat + 3);
+  EXPECT_EQ(rx[1].id, cob::kTpdo1 + 3);
+  EXPECT_EQ(rx[2].id, cob::kSync);
+  EXPECT_EQ(ls.plant_stalled_steps(), 24u);
+}
+
 }  // namespace hyq::hal

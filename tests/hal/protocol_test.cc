@@ -143,6 +143,26 @@ TEST(Protocol, MalformedFramesAreRejectedWithoutTouchingTheOutput) {
   EXPECT_EQ(DecodeSync(sync, &counter), PdoStatus::kWrongLength);
 }
 
+// the simulated plant's clock (lock-step only): CiA 301's TIME id, two little-endian u32, and
+// no node a device could own (the HAL would count it unknown, never as a device's frame)
+TEST(Protocol, PlantClockRoundTripOnTheTimeId) {
+  const CanFrame f = EncodePlantClock({0x01020304u, 19});
+  EXPECT_EQ(f.id, 0x100u);
+  EXPECT_EQ(f.len, 8);
+  EXPECT_EQ(f.data[0], 0x04);
+  EXPECT_EQ(f.data[3], 0x01);
+  EXPECT_EQ(f.data[4], 19);
+  PlantClock c;
+  ASSERT_EQ(DecodePlantClock(f, &c), PdoStatus::kOk);
+  EXPECT_EQ(c.steps, 0x01020304u);
+  EXPECT_EQ(c.stalled_steps, 19u);
+  EXPECT_EQ(Classify(f.id).kind, FrameKind::kUnknown);
+  CanFrame short_frame = f;
+  short_frame.len = 4;
+  EXPECT_EQ(DecodePlantClock(short_frame, &c), PdoStatus::kWrongLength);
+  EXPECT_EQ(DecodePlantClock(EncodeSync(1), &c), PdoStatus::kWrongId);
+}
+
 TEST(Protocol, SyncCounterWrapsAt240) {
   EXPECT_EQ(NextSyncCounter(0), 1);
   EXPECT_EQ(NextSyncCounter(1), 2);

@@ -143,10 +143,17 @@ std::string Help() {
       "                         runs without the boards' velocity had)\n"
       "  --velocity-cutoff HZ   the boards' low-pass cut-off (default 250; 0: the bare difference)\n"
       "  --write-model FILE     write the plant's MuJoCo model (MJCF, model error included) and exit\n"
-      "  --fault T:KIND:TARGET[:ARG]  at simulated time T: silent|corrupt|drop|nan|bus-off|emcy;\n"
-      "                         TARGET a device (lf_kfe, imu) or for bus-off a bus (rh); ARG\n"
-      "                         frames (corrupt, drop), seconds (silent, bus-off), code (emcy).\n"
-      "                         e.g. 2.5:silent:lf_kfe 3.0:corrupt:rf_hfe:20 4.0:bus-off:rh\n"
+      "  --fault T:KIND:TARGET[:ARG]  at simulated time T: silent|corrupt|drop|nan|bus-off|emcy|\n"
+      "                         reset|stall; TARGET a device (lf_kfe, imu), for bus-off a bus (rh),\n"
+      "                         for stall daemon; ARG frames (corrupt, drop), seconds (silent,\n"
+      "                         bus-off), code (emcy). reset: the device resets and boots again,\n"
+      "                         silent for ARG s (default 0.05), then boot-up and PRE-OPERATIONAL.\n"
+      "                         stall (lock-step only): the daemon stalls for ARG s (required):\n"
+      "                         the plant steps on without its SYNCs, the boards holding their\n"
+      "                         set-points (until their own timer trips them), then the daemon is\n"
+      "                         told the periods it lost. e.g. 2.5:silent:lf_kfe\n"
+      "                         3.0:corrupt:rf_hfe:20 4.0:bus-off:rh 5.0:reset:lf_kfe\n"
+      "                         5.0:stall:daemon:0.019\n"
       "  --truth FILE           ground-truth CSV (t, base pose, q, qd, applied tau, contacts,\n"
       "                         each foot's friction, the base's linear (W) and angular (B)\n"
       "                         velocity)\n"
@@ -252,7 +259,8 @@ std::string Fault(hyq::cli::CommandLine& cl) {
   (void)cl.NumberOf("--fault T", f[0], 0.0, kNoMax, "simulated seconds >= 0");
   using Kind = hyq::sim::FaultSpec::Kind;
   std::string kinds;
-  for (Kind k : {Kind::kSilent, Kind::kCorrupt, Kind::kDrop, Kind::kNan, Kind::kBusOff, Kind::kEmcy}) {
+  for (Kind k : {Kind::kSilent, Kind::kCorrupt, Kind::kDrop, Kind::kNan, Kind::kBusOff, Kind::kEmcy,
+                 Kind::kReset, Kind::kStall}) {
     if (f[1] == hyq::sim::ToString(k)) return v;
     if (!kinds.empty()) kinds += '|';
     kinds += hyq::sim::ToString(k);
@@ -673,6 +681,13 @@ void AddBoards(const hyq::hal::Emulator& e, Json* s) {
   (*s)["max_abs_setpoint_Nm"] = max_abs_setpoint_Nm;
 }
 
+/// Devices reset (--fault T:reset:...), on every bus.
+std::uint64_t BoardResets(const hyq::hal::Emulator& e, const hyq::hal::HalConfig& cfg) {
+  std::uint64_t n = 0;
+  for (std::size_t b = 0; b < cfg.buses.size(); ++b) n += e.counters(static_cast<int>(b)).resets;
+  return n;
+}
+
 /// --summary: the run's outcome, counters, timing and the boards' state, as JSON (read by
 /// scripts/hil.sh, tests/hil/*.sh and scripts/*.py).
 Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
@@ -738,6 +753,8 @@ Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
                       {"cpu", t.bus.pinned ? t.bus_cfg.cpu : -1}}},
       {"stalls", o.stalls.size()},
       {"faults_injected", c.faults_injected},
+      {"stalled_steps", c.stalled_steps},
+      {"board_resets", BoardResets(robot.emulator(), cfg)},
       {"lcm_truth_published", truth_published}};
   AddBoards(robot.emulator(), &s);
   Json faults = Json::array();
@@ -751,19 +768,24 @@ Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
 int Run(const hyq::cli::CommandLine& cl, const Options& o) {
   using namespace hyq;
   const hal::HalConfig cfg = LoadConfig(cl, o);
+  std::vector<sim::FaultSpec> faults;
+  for (const std::string& f : o.faults) {
+    try {
+      faults.push_back(sim::ParseFaultSpec(f, cfg));
+    } catch (const std::invalid_argument& e) {
+      cl.Fail(std::string("--fault: ") + e.what());
+    }
+    // in real time a stalled daemon is the daemon's own doing (hyq-servod --inject-overrun)
+    if (faults.back().kind == sim::FaultSpec::Kind::kStall && !o.lockstep)
+      cl.Fail("--fault: fault '" + f + "': expected --mode lockstep for stall, found realtime");
+  }
   const dynamics::Model model = dynamics::LoadModelFromUrdf(o.urdf);
   if (!o.write_model.empty()) return WriteModel(o, cfg, model);
   const Channels channels = OpenChannels(o, cfg);
   sim::SimulatedRobot robot(model, cfg, channels.raw, o.robot);
   if (!o.quiet && o.robot.profile.name != "ideal")
     std::fprintf(stderr, "%s: plant profile %s\n", kTool, o.robot.profile.Json().c_str());
-  for (const std::string& f : o.faults) {
-    try {
-      robot.ScheduleFault(sim::ParseFaultSpec(f, cfg));
-    } catch (const std::invalid_argument& e) {
-      cl.Fail(std::string("--fault: ") + e.what());
-    }
-  }
+  for (const sim::FaultSpec& f : faults) robot.ScheduleFault(f);
   StepRecorder recorder(o);
   robot.SetStepObserver([&recorder](const sim::SimulatedRobot& r) { recorder.OnStep(r); });
 
