@@ -342,8 +342,10 @@ void Emulator::Poll(std::int64_t now_ns) noexcept {
     for (int index : b.devices) {
       Device& d = devices_[static_cast<std::size_t>(index)];
       if (d.boot_at_ns >= 0 && now_ns >= d.boot_at_ns) d.boot_at_ns = -1;  // booted: boot-up below
-      if (Deaf(d)) continue;
+      // a silent board hears no SYNC and no set-point either (a cut cable): its own timer
+      // still runs and takes its outputs off (the EMCY goes out once it can talk again)
       CheckSetpointTimer(b, d, now_ns);
+      if (Deaf(d)) continue;
       CheckMasterHeartbeat(b, d, now_ns);
       if (b.recovered) {
         d.emcy_pending = true;

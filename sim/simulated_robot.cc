@@ -280,6 +280,7 @@ void SimulatedRobot::Step() noexcept {
         z - plant_->GroundHeightAt(q(0), q(1)) < cfg_.fall_height_m || plant_->BodyDownOnGround();
     if (contact && !sat_down_) {
       contact_speed_m_s_ = -plant_->v()(2);
+      contact_tilt_deg_ = std::acos(std::clamp(up, -1.0, 1.0)) * 180.0 / M_PI;
       const bool gentle = contact_speed_m_s_ <= cfg_.max_sit_speed_m_s && up > std::cos(M_PI / 6);
       (gentle ? sat_down_ : fell_) = true;
       (gentle ? sat_down_at_s_ : fell_at_s_) = time_s();

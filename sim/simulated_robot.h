@@ -189,6 +189,8 @@ class SimulatedRobot {
   double sat_down_at_s() const noexcept { return sat_down_at_s_; }
   /// The base's downward speed at the first ground contact (fall or sit-down), m/s.
   double contact_speed_m_s() const noexcept { return contact_speed_m_s_; }
+  /// The trunk's tilt from upright when it first touched the ground (deg).
+  double contact_tilt_deg() const noexcept { return contact_tilt_deg_; }
   double min_base_height_m() const noexcept { return min_base_height_m_; }
   /// The IMU's biases (the configured plus the profile's drawn ones), in the trunk's frame.
   Eigen::Vector3d gyro_bias_B() const noexcept { return R_BF_ * gyro_bias_; }
@@ -253,6 +255,7 @@ class SimulatedRobot {
   bool sat_down_ = false;
   double sat_down_at_s_ = 0.0;
   double contact_speed_m_s_ = 0.0;
+  double contact_tilt_deg_ = 0.0;
   std::function<void(const SimulatedRobot&)> observer_;
   double min_base_height_m_;
   std::uint64_t rng_;

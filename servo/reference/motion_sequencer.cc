@@ -66,7 +66,8 @@ struct MotionPhaseTable {
       for (std::size_t f = 0; f < kNumFeet; ++f) {
         if (!m.posture_.starts_on_ground(f) && (m.excluded_[f] || in.contacts->probability[f] < 0.5))
           m.joints_->stance[f] = false;
-        m.joints_->takeover[f] = std::min(m.joints_->takeover[f], in.contacts->probability[f]);
+        if (!m.excluded_[f])  // a lost leg's foot reads no force: its healthy joints keep their gains
+          m.joints_->takeover[f] = std::min(m.joints_->takeover[f], in.contacts->probability[f]);
       }
     return m.phase_;
   }

@@ -45,24 +45,11 @@ void PostureMove::Start(const dynamics::VectorJ& q, const std::array<bool, kNumF
   brake_s_ = std::min(duration_s_, 0.3);
   v0_B_ = v0_B.allFinite() ? v0_B : Eigen::Vector2d::Zero();
   excluded_ = excluded;
-  shift_s_ = kShiftFraction * duration_s_;
-  Eigen::Vector2d centroid = Eigen::Vector2d::Zero();
-  int carrying = 0;
   for (int leg = 0; leg < kNumFeet; ++leg) {
     const auto l = static_cast<std::size_t>(leg);
     p_WF0_[l] = Eigen::Vector3d(0.0, 0.0, h0) + p_BF[l];
-    on_ground_[l] = !excluded[l] && p_WF0_[l].z() < model_.feet[l].radius_m + kOnGroundTolerance_m;
-    if (!excluded[l]) {
-      centroid += p_WF0_[l].head<2>();
-      ++carrying;
-    }
+    on_ground_[l] = p_WF0_[l].z() < model_.feet[l].radius_m + kOnGroundTolerance_m;
   }
-  // over the centroid of the feet that carry (the trunk's centre of mass is near the base
-  // origin): with one leg lost the others' triangle holds the trunk with a margin
-  shift_ = carrying < kNumFeet && carrying > 0 ? Eigen::Vector2d(centroid / carrying)
-                                               : Eigen::Vector2d::Zero();
-  if (!shift_.allFinite()) shift_.setZero();
-  q_start_ = q;
   last_q_ = q;
 }
 
@@ -80,24 +67,11 @@ bool PostureMove::Sample(double t, JointReference* out) noexcept {
   p_B.head<2>() = v0_B_ * T * xs;
   v_B.head<2>() = v0_B_ * dxs;
   a_B.head<2>() = v0_B_ * ddxs / T;
-  const Smooth sh = MinJerk(t / shift_s_);
-  p_B.head<2>() += shift_ * sh.s;
-  v_B.head<2>() += shift_ * sh.ds / shift_s_;
-  a_B.head<2>() += shift_ * sh.dds / (shift_s_ * shift_s_);
   // feet: in place; each one onto the ground (z = r) in the first lower_s_ seconds
   const Smooth f = MinJerk(t / lower_s_);
   bool ok = true;
   for (int leg = 0; leg < kNumFeet; ++leg) {
     const auto l = static_cast<std::size_t>(leg);
-    if (excluded_[l]) {  // held where it was: it carries nothing the controller could count on
-      out->q.segment<3>(3 * leg) = q_start_.segment<3>(3 * leg);
-      out->qd.segment<3>(3 * leg).setZero();
-      out->qdd.segment<3>(3 * leg).setZero();
-      out->stance[l] = false;
-      out->takeover[l] = 0.0;
-      out->friction_takeover[l] = 1.0;
-      continue;
-    }
     const double dz = model_.feet[l].radius_m - p_WF0_[l].z();
     Eigen::Vector3d p_F = p_WF0_[l], v_F = Eigen::Vector3d::Zero(), a_F = Eigen::Vector3d::Zero();
     p_F.z() += dz * f.s;
@@ -131,9 +105,11 @@ bool PostureMove::Sample(double t, JointReference* out) noexcept {
       out->qd.segment<3>(3 * leg).setZero();
       out->qdd.segment<3>(3 * leg).setZero();
     }
-    // a lowered foot carries weight once it is down, taking over as a landed trot foot does
-    out->stance[l] = on_ground_[l] || t >= lower_s_;
-    out->takeover[l] = on_ground_[l] ? 1.0 : std::clamp((t - lower_s_) / kTakeoverS, 0.0, 1.0);
+    // a lowered foot carries weight once it is down, taking over as a landed trot foot does; an
+    // excluded leg's foot moves as the others (it follows the trunk down instead of propping
+    // it up), on its leg's stance gains, but the controller counts on no force from it
+    out->stance[l] = !excluded_[l] && (on_ground_[l] || t >= lower_s_);
+    out->takeover[l] = on_ground_[l] || excluded_[l] ? 1.0 : std::clamp((t - lower_s_) / kTakeoverS, 0.0, 1.0);
     out->friction_takeover[l] = 1.0;
   }
   last_q_ = out->q;

@@ -28,15 +28,14 @@ class PostureMove {
   /// the one that puts the `on_ground` feet on the ground (their mean); the feet not on the
   /// ground are lowered onto it in the first `lower_fraction` of the move.
   /// `v0_B`: the base's horizontal velocity at the start (base frame, m/s), braked to rest in
-  /// min(duration, 0.3 s). `excluded`: legs that cannot carry (a fault's lost joint): held where
-  /// they are, out of the stance set, and the base moves over the centroid of the other feet in
-  /// the first kShiftFraction of the move (a minimum-jerk shift), so that three feet hold it.
+  /// min(duration, 0.3 s). `excluded`: legs that cannot be counted on to carry (a fault's lost
+  /// joint): their feet move as the others' do (following the trunk down, not propping it up)
+  /// but out of the stance set. The base does not move over the other feet's triangle: on ice
+  /// the ground gives the trunk about 1 m/s² sideways, and the 10-16 cm to its centroid take
+  /// about a second, the lost corner some 0.2 s to drop (docs/servo.md, "Graded stops").
   void Start(const dynamics::VectorJ& q, const std::array<bool, kNumFeet>& on_ground, double h1_m,
              double duration_s, const Eigen::Vector2d& v0_B = Eigen::Vector2d::Zero(),
              double lower_fraction = 0.4, const std::array<bool, kNumFeet>& excluded = {}) noexcept;
-  static constexpr double kShiftFraction = 0.5;
-  /// The base's horizontal shift at the end of the move (move frame), zero without an excluded leg.
-  const Eigen::Vector2d& shift_m() const noexcept { return shift_; }
 
   /// The joint reference at `t` seconds into the move (t ≥ duration: the end posture, at rest);
   /// false when a leg's inverse kinematics did not solve (the previous sample stands).
@@ -59,9 +58,6 @@ class PostureMove {
   std::array<Eigen::Vector3d, kNumFeet> p_WF0_{};  // feet at the start, base at (0, 0, h0)
   std::array<bool, kNumFeet> on_ground_{};
   std::array<bool, kNumFeet> excluded_{};
-  Eigen::Vector2d shift_ = Eigen::Vector2d::Zero();
-  double shift_s_ = 1.0;
-  dynamics::VectorJ q_start_ = dynamics::VectorJ::Zero();
   dynamics::VectorJ last_q_ = dynamics::VectorJ::Zero();
   Eigen::Vector3d last_p_B_ = Eigen::Vector3d::Zero();
 };

@@ -49,6 +49,10 @@
 #       ACTIVE the base (hyq-sim's truth) is within 25 % of the commanded path's length of the
 #       commanded position and within 0.2 rad of the commanded yaw (tests/hil/steered_run.py);
 #       no fall, no fault, both commands applied (docs/steering.md).
+#   hil_e2e_test.sh BUILD_DIR OUT_DIR recover
+#       recovery after a degraded stop: a board silent for 0.5 s during the trot, the sit-down
+#       into FAULT; hyq-command ack and enable; the robot stands up and trots again in the same
+#       daemon, then stops under control (docs/servo.md, "Graded stops").
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR mainjob
 #       the README's main-job command itself (scripts/run.sh), shortened to 1 s.
 set -uo pipefail
@@ -490,6 +494,80 @@ EOS
     check_json "[e['reason'] for e in s['event_log'] if e['from'] == 'standby' and e['to'] == 'active'] == ['enable_command']"
     check_json "[e['reason'] for e in s['event_log'] if e['from'] == 'active'][0] == 'damping_command'"
     check_json "s['active_s'] > 0.3 and not [e for e in s['event_log'] if e['reason'] == 'command_rejected']"
+    ;;
+  recover)
+    # lock-step, the command channel on, auto-enable, the trot with the two-stage ID; lf_kfe's
+    # board silent for 0.5 s at 4 s of simulated time: the degraded sit-down, then FAULT. Once
+    # the board is back, an acknowledgement (hyq-command ack) and an enable: the robot stands up
+    # and trots again in the same daemon, 3 s of reference, then the controlled stop; no fall
+    cmd="$build/tools/hyq-command/hyq-command"
+    "$cmd" --generate-key "$out/robot.key" >/dev/null || fail "hyq-command --generate-key"
+    servo_config "$out/servo.yaml" "$here/config/hyq_hal.yaml"
+    relax_deadline "$out/servo.yaml"
+    cat > "$out/recover.sh" <<EOS
+$netns_script_head
+"$build/tools/hyq-sim/hyq-sim" --mode lockstep --mu 0.1 --fault 4.0:silent:lf_kfe:0.5 --summary "$out/sim.json" --truth "$out/truth.csv" --quiet 2>"$out/sim.log" &
+sim=\$!
+sleep 0.2
+"$build/tools/hyq-servod/hyq-servod" --config "$out/servo.yaml" --clock lockstep --auto-enable \
+  --reference trot --controller two_stage --mu 0.1 --duration 3 --commands \
+  --command-key "$out/robot.key" --summary "$out/servod.json" 2>"$out/servod.log" &
+servod=\$!
+simt() { tail -c 20000 "$out/truth.csv" 2>/dev/null | tail -n 2 | head -n 1 | cut -d, -f1; }
+wait_sim() {
+  for i in \$(seq 1200); do
+    t=\$(simt)
+    [[ "\$t" =~ ^[0-9.]+\$ ]] && awk "BEGIN { exit !(\$t >= \$1) }" && return 0
+    kill -0 \$servod 2>/dev/null || return 1
+    sleep 0.05
+  done
+  return 1
+}
+# the sit-down's damping holds until the robot rests (at most 5 s after it): acknowledgements
+# every second of simulated time from 7 s (one in DAMPING is refused, an event), then the enable
+for t in 7 8 9 10 11 12; do
+  wait_sim \$t || { echo "recover: the simulation did not reach \$t s" >&2; kill -TERM \$servod \$sim; exit 1; }
+  "$cmd" --key "$out/robot.key" --sender op@hil ack
+done
+wait_sim 12.5 || { echo "recover: the simulation did not reach 12.5 s" >&2; kill -TERM \$servod \$sim; exit 1; }
+"$cmd" --key "$out/robot.key" --sender op@hil enable
+# the second ACTIVE ends with the run's duration; a daemon left in FAULT would never end
+for i in \$(seq 1200); do kill -0 \$servod 2>/dev/null || break; sleep 0.1; done
+kill -0 \$servod 2>/dev/null && { echo "recover: the daemon did not finish (left in FAULT?)" >&2; kill -TERM \$servod; }
+wait \$servod; rc=\$?
+kill -TERM \$sim; wait \$sim
+exit \$rc
+EOS
+    chmod +x "$out/recover.sh"
+    unshare -n "$out/recover.sh" || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "the recovery run failed"; }
+    "$py" -c "import json; [print('hil_e2e_test: event', e['cycle'], e['time_s'], e['from'], '->', e['to'], e['reason'], e['stop'], e['detail']) for e in json.load(open('$out/servod.json'))['event_log']]"
+    # the fault's degraded sit-down into FAULT, the acknowledgement, the second enable, the stop
+    check_json "[e['reason'] for e in s['event_log'] if e['stop'] == 'degraded'][:1] == ['input_missing']"
+    check_json "any(e['from'] == 'fault' and e['to'] == 'standby' and e['reason'] == 'acknowledge' for e in s['event_log'])"
+    check_json "[e['to'] for e in s['event_log'] if e['reason'] == 'enable_command' and e['from'] == 'standby'] == ['active', 'active']"
+    check_json "s['final_mode'] == 'stopped'"
+    # ACTIVE again for the stand-up and 3 s of trot (the first ACTIVE: about 4 s)
+    check_json "s['active_s'] >= 4.0 + 2.0 + 3.0"
+    # standing and upright while it trots again (hyq-sim's truth: base height and tilt from the
+    # end of the second stand-up to the stop; how the fault's sit-down itself ended is the fault
+    # matrix's to judge)
+    "$py" - "$out" <<'PY' || fail "the robot did not stand and trot upright after the recovery"
+import csv, json, math, os, sys
+out = sys.argv[1]
+ev = json.load(open(os.path.join(out, "servod.json")))["event_log"]
+t_on = [e["time_s"] for e in ev if e["reason"] == "enable_command" and e["to"] == "active"][1] + 2.5
+t_off = [e["time_s"] for e in ev if e["reason"] == "stop_request"][0]
+z, tilt = [], []
+for r in csv.DictReader(open(os.path.join(out, "truth.csv"))):
+    if t_on <= float(r["t"]) <= t_off:
+        w, x, y = float(r["qw"]), float(r["qx"]), float(r["qy"])
+        z.append(float(r["z"]))
+        tilt.append(math.degrees(math.acos(max(-1.0, min(1.0, 1 - 2 * (x * x + y * y))))))
+ok = len(z) > 100 and min(z) >= 0.5 and max(tilt) <= 10.0  # truth rows every 10 ms
+print(f"hil_e2e_test: {'ok  ' if ok else 'FAIL'} trotting again {t_on:.2f}-{t_off:.2f} s: base height "
+      f"{min(z):.3f}-{max(z):.3f} m (>= 0.5), tilt at most {max(tilt):.1f} deg (<= 10)")
+sys.exit(0 if ok else 1)
+PY
     ;;
   steer)
     cmd="$build/tools/hyq-command/hyq-command"
