@@ -350,7 +350,8 @@ void ServoLoop::Damping() noexcept {
       const auto leg = static_cast<std::size_t>(j / dynamics::kJointsPerLeg);
       const bool still = std::abs(estimator_.feet()[leg].point_velocity_W.z()) <=
                          config_.trot.touchdown.still_speed_m_s;
-      const double loaded = !feet_known_ ? 1.0 : still ? pipeline_->feet().probability()[leg] : 0.0;
+      // without the IMU the feet's speeds are the estimate's guess: every leg damped in full
+      const double loaded = !feet_known_ || lost_.imu ? 1.0 : still ? pipeline_->feet().probability()[leg] : 0.0;
       scale = light + (1.0 - light) * loaded;
     }
     tau_(j) = ok ? -D * scale * in.velocity_rad_s : 0.0;

@@ -159,6 +159,24 @@ netns_script_head='#!/bin/bash
 set -u
 ip link set lo up; ip route add 224.0.0.0/4 dev lo'
 
+# For the scripts that send commands during a run (TRUTH_CSV: hyq-sim's --truth file): the
+# simulated time from its last complete row (the file is written as it runs, a few rows behind);
+# lock-step runs 1-5x faster than the wall clock here, so commands are paced on the robot's time,
+# not on sleeps. wait_sim T returns once the simulation reached T s, fails when the daemon
+# ($servod) is gone or after a minute.
+read -r -d '' sim_clock_functions <<'EOS'
+simt() { tail -c 20000 "TRUTH_CSV" 2>/dev/null | tail -n 2 | head -n 1 | cut -d, -f1; }
+wait_sim() {
+  for i in $(seq 1200); do
+    t=$(simt)
+    [[ "$t" =~ ^[0-9.]+$ ]] && awk "BEGIN { exit !($t >= $1) }" && return 0
+    kill -0 $servod 2>/dev/null || return 1
+    sleep 0.05
+  done
+  return 1
+}
+EOS
+
 # The shipped simulation configuration with the deadline policy relaxed; prints its path.
 relaxed_deadline_config() {
   servo_config "$out/relaxed_servo.yaml" "$here/config/hyq_hal.yaml"
@@ -513,16 +531,7 @@ sleep 0.2
   --reference trot --controller two_stage --mu 0.1 --duration 3 --commands \
   --command-key "$out/robot.key" --summary "$out/servod.json" 2>"$out/servod.log" &
 servod=\$!
-simt() { tail -c 20000 "$out/truth.csv" 2>/dev/null | tail -n 2 | head -n 1 | cut -d, -f1; }
-wait_sim() {
-  for i in \$(seq 1200); do
-    t=\$(simt)
-    [[ "\$t" =~ ^[0-9.]+\$ ]] && awk "BEGIN { exit !(\$t >= \$1) }" && return 0
-    kill -0 \$servod 2>/dev/null || return 1
-    sleep 0.05
-  done
-  return 1
-}
+${sim_clock_functions//TRUTH_CSV/$out/truth.csv}
 # the sit-down's damping holds until the robot rests (at most 5 s after it): acknowledgements
 # every second of simulated time from 7 s (one in DAMPING is refused, an event), then the enable
 for t in 7 8 9 10 11 12; do
@@ -584,19 +593,7 @@ sleep 0.2
   --reference trot --controller two_stage --mu 0.8 --duration 10 --commands \
   --command-key "$out/robot.key" --summary "$out/servod.json" 2>"$out/servod.log" &
 servod=\$!
-# the simulated time from hyq-sim's truth file (its last complete row; the file is written as it
-# runs, a few rows behind): lock-step runs 1-5x faster than the wall clock here, so the commands
-# are paced on the robot's time, not on sleeps
-simt() { tail -c 20000 "$out/truth.csv" 2>/dev/null | tail -n 2 | head -n 1 | cut -d, -f1; }
-wait_sim() {
-  for i in \$(seq 1200); do
-    t=\$(simt)
-    [[ "\$t" =~ ^[0-9.]+\$ ]] && awk "BEGIN { exit !(\$t >= \$1) }" && return 0
-    kill -0 \$servod 2>/dev/null || return 1
-    sleep 0.05
-  done
-  return 1
-}
+${sim_clock_functions//TRUTH_CSV/$out/truth.csv}
 wait_sim 3 || { echo "steer: the simulation did not reach 3 s" >&2; kill -TERM \$servod \$sim; exit 1; }
 "$cmd" --key "$out/robot.key" --sender op@hil velocity 0.3 0 0
 wait_sim 6 || { echo "steer: the simulation did not reach 6 s" >&2; kill -TERM \$servod \$sim; exit 1; }
