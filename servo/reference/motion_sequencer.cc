@@ -4,6 +4,17 @@
 #include <cmath>
 
 namespace hyq::servo {
+namespace {
+
+// the legs with a lost joint (a fault's sit-down holds them out of the stance set)
+std::array<bool, kNumFeet> LostLegs(const MotionInputs& in) noexcept {
+  std::array<bool, kNumFeet> legs{};
+  if (in.lost != nullptr)
+    for (int l = 0; l < kNumFeet; ++l) legs[static_cast<std::size_t>(l)] = in.lost->leg(l);
+  return legs;
+}
+
+}  // namespace
 
 // The phases' handlers and their table (motion_sequencer.h): each returns the next phase.
 struct MotionPhaseTable {
@@ -43,9 +54,7 @@ struct MotionPhaseTable {
       const double c = std::cos(b.yaw), s = std::sin(b.yaw);
       v0_B = Eigen::Vector2d(c * b.v_W.x() + s * b.v_W.y(), -s * b.v_W.x() + c * b.v_W.y());
     }
-    m.excluded_ = {};
-    if (m.sit_cause_ == SitDownCause::kFault && in.lost != nullptr)
-      for (int l = 0; l < kNumFeet; ++l) m.excluded_[static_cast<std::size_t>(l)] = in.lost->leg(l);
+    m.excluded_ = m.sit_cause_ == SitDownCause::kFault ? LostLegs(in) : std::array<bool, kNumFeet>{};
     m.posture_.Start(in.q_rad, m.joints_->stance, m.config_.crouch_height_m,
                      m.config_.sit_down_s, v0_B, 0.4, m.excluded_);
   }
@@ -64,7 +73,7 @@ struct MotionPhaseTable {
     // the stance gains ring a light leg behind the lag
     if (m.phase_ == MotionPhase::kSitDown && in.contacts != nullptr)
       for (std::size_t f = 0; f < kNumFeet; ++f) {
-        if (!m.posture_.starts_on_ground(f) && (m.excluded_[f] || in.contacts->probability[f] < 0.5))
+        if (!m.posture_.starts_on_ground(f) && in.contacts->probability[f] < 0.5)
           m.joints_->stance[f] = false;
         if (!m.excluded_[f])  // a lost leg's foot reads no force: its healthy joints keep their gains
           m.joints_->takeover[f] = std::min(m.joints_->takeover[f], in.contacts->probability[f]);
@@ -204,9 +213,7 @@ MotionRequests MotionSequencer::RequestSitDown(SitDownCause cause,
     // already, again from here only when a leg is newly lost
     const bool sitting = phase_ == MotionPhase::kSitDown;
     if (!sitting && MotionPhaseTable::Of(phase_).sit == nullptr) return r;
-    bool news = !sitting || sit_cause_ != SitDownCause::kFault;
-    if (in.lost != nullptr)
-      for (int l = 0; l < kNumFeet; ++l) news = news || in.lost->leg(l) != excluded_[static_cast<std::size_t>(l)];
+    const bool news = !sitting || sit_cause_ != SitDownCause::kFault || LostLegs(in) != excluded_;
     sit_cause_ = SitDownCause::kFault;
     if (!news) return r;
     sit_pending_ = false;

@@ -25,7 +25,7 @@
 //              (q̇_ref by the product rule; q̈_ref = s q̈_r)
 //   SIT-DOWN   PostureMove from the measured posture down to crouch_height_m in sit_down_s, the
 //              reference's stance feet on the ground, its base velocity braked to rest; after a
-//              fault, a leg with a lost joint held out of it and the base over the other feet
+//              fault, a leg with a lost joint out of the stance set, its foot moved with the others
 //   SETTLE     after a sit-down, until the next enable: while the safety state machine damps (not
 //              a fault's cut) the damping is the sit-down's, held until every joint has been slower
 //              than settle_speed_rad_s for kSettledS, at most settle_max_s

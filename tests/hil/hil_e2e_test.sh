@@ -533,12 +533,12 @@ sleep 0.2
 servod=\$!
 ${sim_clock_functions//TRUTH_CSV/$out/truth.csv}
 # the sit-down's damping holds until the robot rests (at most 5 s after it): acknowledgements
-# every second of simulated time from 7 s (one in DAMPING is refused, an event), then the enable
-for t in 7 8 9 10 11 12; do
+# every second of simulated time from 7 s to 14 s (one in DAMPING is refused, an event), then the enable
+for t in 7 8 9 10 11 12 13 14; do
   wait_sim \$t || { echo "recover: the simulation did not reach \$t s" >&2; kill -TERM \$servod \$sim; exit 1; }
   "$cmd" --key "$out/robot.key" --sender op@hil ack
 done
-wait_sim 12.5 || { echo "recover: the simulation did not reach 12.5 s" >&2; kill -TERM \$servod \$sim; exit 1; }
+wait_sim 14.5 || { echo "recover: the simulation did not reach 14.5 s" >&2; kill -TERM \$servod \$sim; exit 1; }
 "$cmd" --key "$out/robot.key" --sender op@hil enable
 # the second ACTIVE ends with the run's duration; a daemon left in FAULT would never end
 for i in \$(seq 1200); do kill -0 \$servod 2>/dev/null || break; sleep 0.1; done
