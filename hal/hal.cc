@@ -371,6 +371,12 @@ void Bus::RequestState(DeviceState target, std::int64_t now_ns) noexcept {
   }
 }
 
+void Bus::ReleaseJoint(int joint) noexcept {
+  for (DeviceRuntime& d : devices_)
+    if (d.kind == DeviceKind::kActuator && d.joint == joint && d.target > DeviceState::kSafeOp)
+      hal::RequestState(d, DeviceState::kSafeOp);
+}
+
 void Bus::AcknowledgeFaults(std::int64_t now_ns) noexcept {
   for (DeviceRuntime& d : devices_) {
     if (d.error_latched) d.state_entered_ns = now_ns;
@@ -419,6 +425,10 @@ void Hal::RequestState(DeviceState target, std::int64_t now_ns) noexcept {
   if (target > target_ || bringup_start_ns_ == 0) bringup_start_ns_ = now_ns;
   target_ = target;
   for (auto& b : buses_) b->RequestState(target, now_ns);
+}
+
+void Hal::ReleaseJoint(int joint) noexcept {
+  for (auto& b : buses_) b->ReleaseJoint(joint);
 }
 
 void Hal::AcknowledgeFaults(std::int64_t now_ns) noexcept {

@@ -85,6 +85,8 @@ class Bus {
   HalStatus Write(std::int64_t now_ns, const ProcessImage& image) noexcept;
 
   void RequestState(DeviceState target, std::int64_t now_ns) noexcept;
+  /// The board of `joint` (if on this bus) to SAFE-OP: its outputs off (Hal::ReleaseJoint).
+  void ReleaseJoint(int joint) noexcept;
   void AcknowledgeFaults(std::int64_t now_ns) noexcept;
   bool AllIn(DeviceState s) const noexcept;
 
@@ -138,6 +140,11 @@ class Hal {
 
   /// Every device's target; also starts the bring-up clock when going up.
   void RequestState(DeviceState target, std::int64_t now_ns) noexcept;
+  /// Takes the board of `joint` to SAFE-OP and keeps it there until the next RequestState: its
+  /// outputs off (0 N·m, not enabled), so that a hydraulic board closes its valve and locks the
+  /// joint (a lost joint's board that is still in OP would otherwise follow a 0 N·m set-point
+  /// and let it go limp). Idempotent, for the cycle.
+  void ReleaseJoint(int joint) noexcept;
   /// Clears latched errors so devices in SAFE-OP may go back to OP.
   void AcknowledgeFaults(std::int64_t now_ns) noexcept;
   bool AllIn(DeviceState s) const noexcept;

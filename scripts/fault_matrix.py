@@ -6,6 +6,7 @@ realistic plant; each run judged by how the robot stopped (docs/servo.md, "Grade
     /usr/bin/python3 scripts/fault_matrix.py [--out DIR] [--plants ideal,realistic]
                                              [--references trot,eight] [--phases N] [--seed N]
                                              [--quick] [--kinds K1,K2] [--build DIR]
+                                             [--rerun-failed DIR/fault_matrix.json]
 
 A run: the shipped simulation configuration, lock-step, 6 s of reference; the fault at a seeded
 simulated time in [4.0, 5.5) s (the gait under way, at a seeded phase of its cycle), on a seeded
@@ -17,6 +18,7 @@ fault at all). Then:
   cut                    the trunk's contact speed is reported; at most 0.5 m/s counts as down
                          gently, above as the measured best (the damping's, safety.damping_Nms_per_rad)
 --quick: one target per fault kind per plant (seeded), the references taking turns: the CI set.
+--rerun-failed: the runs that were not ok in an earlier fault_matrix.json, again (same specs).
 Exit 1 when a run gave another stop class than its kind's, a run of class none faulted or fell,
 or fewer than --min-sat-down of the controlled and degraded runs sat down (default 1: all).
 Writes DIR/fault_matrix.json (every run) and DIR/fault_matrix.md (the tables), prints progress
@@ -51,6 +53,14 @@ REFS = {"trot": "trot", "eight": "figure_eight"}
 
 def plan(a):
     """The runs: (plant, reference, kind, target, time) in a seeded order."""
+    if a.rerun_failed:
+        try:
+            rows = json.load(open(a.rerun_failed))["runs"]
+            return [(r["plant"], r["reference"], r["kind"], r["target"], r["t_s"]) for r in rows
+                    if not r["ok"]]
+        except (OSError, ValueError, KeyError, TypeError) as e:
+            sys.exit(f"fault_matrix.py: --rerun-failed {a.rerun_failed}: expected an earlier "
+                     f"fault_matrix.json (runs with plant, reference, kind, target, t_s, ok), found: {e}")
     rng = random.Random(a.seed)
     kinds = a.kinds.split(",") if a.kinds else list(KINDS)
     runs = []
@@ -131,6 +141,8 @@ def main():
     ap.add_argument("--min-sat-down", type=float, default=1.0,
                     help="the fraction of controlled and degraded runs that must sit down (default 1)")
     ap.add_argument("--build", default=hyq_runs.DEFAULT_BUILD, help="build tree (default build/ci)")
+    ap.add_argument("--rerun-failed", metavar="JSON",
+                    help="run again the runs that failed in this earlier fault_matrix.json")
     a = ap.parse_args()
     a.plants = [p for p in a.plants.split(",") if p]
     a.references = [r for r in a.references.split(",") if r]

@@ -49,6 +49,10 @@ HydraulicActuator::HydraulicActuator(const HydraulicParams& p, const hal::JointC
   substeps_per_loop_ = p.substeps / loops_;
   // the valve is rated with Δp_n over both lands, i.e. Δp_n / 2 across each orifice
   k_orifice_ = p.valve_rated_flow_m3_s / std::sqrt(0.5 * p.valve_rated_drop_Pa);
+  Require(p.valve_radial_clearance_m > 0 && p.valve_port_width_m > 0 && p.oil_viscosity_Pa_s > 0,
+          joint, "valve radial clearance, port width and oil viscosity > 0", p.valve_radial_clearance_m);
+  g_leak_ = M_PI * p.valve_radial_clearance_m * p.valve_radial_clearance_m * p.valve_port_width_m /
+            (32.0 * p.oil_viscosity_Pa_s);
   if (rotary_) {
     Require(p.rotary_displacement_m3_rad > 0, joint, "rotary displacement > 0", p.rotary_displacement_m3_rad);
     area_a_ = area_b_ = p.rotary_displacement_m3_rad;
@@ -89,6 +93,15 @@ double HydraulicActuator::Lever(double q) const noexcept {
   return rotary_ ? 1.0 : hal::LeverArm(cal_.cylinder, q);
 }
 
+double HydraulicActuator::LockDamping(double q) const noexcept {
+  const double r = Lever(q);
+  return r * r * (area_a_ * area_a_ + area_b_ * area_b_) / (2.0 * g_leak_);
+}
+
+double HydraulicActuator::LockTorqueLimitNm(double q) const noexcept {
+  return kReliefRatio * p_.supply_pressure_Pa * std::max(area_a_, area_b_) * std::abs(Lever(q));
+}
+
 double HydraulicActuator::MaxTorqueNm(double q, bool positive) const noexcept {
   const double dp = p_.supply_pressure_Pa - p_.return_pressure_Pa;
   const double r = Lever(q);
@@ -109,10 +122,10 @@ void HydraulicActuator::Reset(double q, double tau) noexcept {
   tau_Nm_ = force_ * r;
 }
 
-double HydraulicActuator::Step(double tau_ref, double q0, double qd) noexcept {
+double HydraulicActuator::Step(double tau_ref, double q0, double qd, bool outputs_on) noexcept {
   const double ps = p_.supply_pressure_Pa, pr = p_.return_pressure_Pa, lam = p_.laminar_drop_Pa;
   const double w = 2 * M_PI * p_.valve_bandwidth_hz, z = p_.valve_damping;
-  const double p_max = 1.5 * ps;  // the relief valve
+  const double p_max = kReliefRatio * ps;  // the relief valve
   const double loop_dt = h_ * substeps_per_loop_;
   double tau_sum = 0.0;
   double t = 0.0;
@@ -120,8 +133,9 @@ double HydraulicActuator::Step(double tau_ref, double q0, double qd) noexcept {
     // the board: samples the load cell and the encoder, computes u (5), holds it
     const double q = q0 + qd * t;
     const double r = Lever(q);
-    double u = 0.0;
-    if (r != 0) {
+    double u = 0.0;  // outputs off: no current, the spool's springs centre it
+    if (!outputs_on) integral_ = 0.0;
+    if (outputs_on && r != 0) {
       const double e = tau_ref / r - force_;
       const double ldot = r * qd;
       // velocity compensation (6): the opening whose two flows leave the rod force unchanged
@@ -158,10 +172,14 @@ double HydraulicActuator::Step(double tau_ref, double q0, double qd) noexcept {
       }
       const double xp = std::max(x_, 0.0), xn = std::max(-x_, 0.0);
       // orifices (2) and their slopes in the chamber's own pressure (≤ 0)
-      const double qa = k_orifice_ * (xp * Root(ps - pa_, lam) - xn * Root(pa_ - pr, lam));
-      const double dqa = -k_orifice_ * (xp * RootSlope(ps - pa_, lam) + xn * RootSlope(pa_ - pr, lam));
-      const double qb = k_orifice_ * (xn * Root(ps - pb_, lam) - xp * Root(pb_ - pr, lam));
-      const double dqb = -k_orifice_ * (xn * RootSlope(ps - pb_, lam) + xp * RootSlope(pb_ - pr, lam));
+      const double qa = k_orifice_ * (xp * Root(ps - pa_, lam) - xn * Root(pa_ - pr, lam)) +
+                        g_leak_ * (ps + pr - 2 * pa_);
+      const double dqa =
+          -k_orifice_ * (xp * RootSlope(ps - pa_, lam) + xn * RootSlope(pa_ - pr, lam)) - 2 * g_leak_;
+      const double qb = k_orifice_ * (xn * Root(ps - pb_, lam) - xp * Root(pb_ - pr, lam)) +
+                        g_leak_ * (ps + pr - 2 * pb_);
+      const double dqb =
+          -k_orifice_ * (xn * RootSlope(ps - pb_, lam) + xp * RootSlope(pb_ - pr, lam)) - 2 * g_leak_;
       // chambers (3), implicit in the orifice term
       const double va = p_.dead_volume_m3 + area_a_ * std::max(len - len_min_, 0.0);
       const double vb = p_.dead_volume_m3 + area_b_ * std::max(len_max_ - len, 0.0);

@@ -6,9 +6,13 @@
 //
 // Per sub-step h (x the valve spool, normalised to ±1; chambers a (piston side) and b (rod side)):
 //   spool, 2nd order:   ẍ = ω_v² (u − x) − 2 ζ_v ω_v ẋ,  |x| ≤ 1 (the spool's stops)          (1)
-//   orifices, turbulent: Q_a = K (x⁺ √(p_s − p_a) − x⁻ √(p_a − p_r)),
-//                        Q_b = K (x⁻ √(p_s − p_b) − x⁺ √(p_b − p_r)),  K = Q_n / √(Δp_n / 2)   (2)
-//     (√ made linear below Δp_lam so that its slope stays finite; |x| ≤ 1 is the flow saturation)
+//   orifices, turbulent: Q_a = K (x⁺ √(p_s − p_a) − x⁻ √(p_a − p_r)) + g (p_s + p_r − 2 p_a),
+//                        Q_b = K (x⁻ √(p_s − p_b) − x⁺ √(p_b − p_r)) + g (p_s + p_r − 2 p_b),
+//                        K = Q_n / √(Δp_n / 2),  g = π r_c² w / (32 μ)                        (2)
+//     (√ made linear below Δp_lam so that its slope stays finite; |x| ≤ 1 is the flow saturation;
+//     g the laminar leakage of each land of a critical-centre spool through its radial clearance
+//     r_c, port width w, oil viscosity μ: Merritt, Hydraulic Control Systems (1967), §2.6, the
+//     leakage coefficient at null K_c0)
 //   chambers, oil compressibility (β the effective bulk modulus):
 //     ṗ_a = β / V_a(L) (Q_a − A_a L̇),   ṗ_b = β / V_b(L) (Q_b + A_b L̇)                       (3)
 //     V_a = V_0 + A_a (L − L_min),  V_b = V_0 + A_b (L_max − L);  L̇ = r(q) q̇
@@ -28,6 +32,13 @@
 // (Δp_a, Δp_b the orifice drops the motion's flows pass: p_s − p_a and p_b − p_r extending,
 // p_a − p_r and p_s − p_b retracting)
 // The joint moves during the plant step as q + q̇ t (the plant's state at the step's start).
+// A board whose outputs are off (disabled, tripped, booting) drives no valve current: the spool's
+// springs centre it (u = 0 in (1)), the ports close and the joint is hydraulically locked, held by
+// the oil in its chambers and creeping only by the lands' leakage g. Without the torque loop, the
+// creep under a load force F is, from (2)-(4) at rest, L̇ ≈ −2 g (F − F_0) / (A_a² + A_b²), with
+// F_0 = (p_s + p_r)(A_a − A_b)/2 the rod's own push at null: LockDamping() is that slope at the
+// joint, r(q)² (A_a² + A_b²) / (2 g), which the profiles without hydraulics apply to a joint whose
+// board is off.
 //
 // Step() allocates nothing and never throws; the constructor checks the parameters (throws).
 #pragma once
@@ -49,6 +60,11 @@ struct HydraulicParams {
   double valve_rated_flow_m3_s = 2.5e-3 / 60.0;  // Q_n at Δp_n (2.5 l/min)
   double valve_rated_drop_Pa = 7e6;        // Δp_n, over both lands
   double laminar_drop_Pa = 0.2e6;          // Δp_lam: below it the orifice flow is linear in Δp
+  // the spool lands' leakage g of (2): radial clearance (a matched spool and bushing), port width
+  // (the rated flow through ≈ 0.2 mm of opening), the oil's viscosity (ISO VG 32 at 40 °C)
+  double valve_radial_clearance_m = 1e-6;
+  double valve_port_width_m = 4e-3;
+  double oil_viscosity_Pa_s = 0.028;
   double dead_volume_m3 = 2e-6;            // V_0 per chamber: valve ports, manifold
   // cylinders (HFE, KFE)
   double piston_diameter_m = 0.016;
@@ -85,7 +101,16 @@ class HydraulicActuator {
   void Reset(double q_rad, double tau_Nm) noexcept;
   /// One plant step with the set-point tau_ref (the joint at q, moving at qd). Returns the mean
   /// joint torque over the step (what the plant applies); torque_Nm() is the torque at its end.
-  double Step(double tau_ref_Nm, double q_rad, double qd_rad_s) noexcept;
+  /// outputs_on false: the board drives no valve current (the spool centres, the joint locks).
+  double Step(double tau_ref_Nm, double q_rad, double qd_rad_s, bool outputs_on = true) noexcept;
+  /// The locked joint's resistance to motion at q (valve at null, see above), N·m·s/rad.
+  double LockDamping(double q_rad) const noexcept;
+  /// The most a locked joint resists with at q: a chamber at the relief valve's pressure
+  /// (kReliefRatio p_s), the other empty, N·m.
+  double LockTorqueLimitNm(double q_rad) const noexcept;
+  static constexpr double kReliefRatio = 1.5;
+  /// g of (2), m³/(s·Pa).
+  double land_leakage() const noexcept { return g_leak_; }
 
   double torque_Nm() const noexcept { return tau_Nm_; }
   double pressure_a_Pa() const noexcept { return pa_; }
@@ -106,6 +131,7 @@ class HydraulicActuator {
   double area_a_, area_b_;          // m² (rotary: displacement, m³/rad)
   double len_min_, len_max_;        // the chambers' ends (L or q)
   double k_orifice_;                // K of (2)
+  double g_leak_;                   // g of (2)
   double kp_, ki_, f_c_, b_, v_s_;  // per kind
   double h_;                        // sub-step, s
   int substeps_per_loop_, loops_;

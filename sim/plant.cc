@@ -270,6 +270,10 @@ void Plant::Step(const dynamics::VectorJ& tau_Nm) {
   ApplyPatches();
 }
 
+void Plant::SetLockDamping(const dynamics::VectorJ& b) noexcept {
+  for (int j = 0; j < dynamics::kNumJoints; ++j) m_->dof_damping[6 + j] = b(j);
+}
+
 // each foot's contact pairs (the floor's and the boxes') take the μ of the ground under the
 // sphere's centre (geom_xpos is the state the next step starts from)
 void Plant::ApplyPatches() {

@@ -128,6 +128,10 @@ class Plant {
   /// One step with these joint torques (clamped to the actuators' ±effort limit), plus the joint
   /// friction (PlantConfig::joint_friction) at the velocity the step starts from.
   void Step(const dynamics::VectorJ& tau_Nm);
+  /// Per joint, a damping (N·m·s/rad) for the next steps: a joint locked by its closed valve
+  /// (Actuation::lock_damping_Nms). MuJoCo's Euler integrator takes joint damping implicitly, so
+  /// a stiff lock stays stable at 1 ms. 0: none.
+  void SetLockDamping(const dynamics::VectorJ& b_Nms_rad) noexcept;
 
   dynamics::VectorQ q() const;
   dynamics::VectorV v() const;

@@ -138,6 +138,7 @@ std::string PlantProfile::Json() const {
   } else {
     s << "null";
   }
+  s << ", \"pump_on\": " << (pump_on ? "true" : "false");
   s << ", \"delay_cycles\": " << delay_cycles << ", \"load_cell_bias_Nm\": " << load_cell_bias_Nm
     << ", \"gyro_bias_rad_s\": " << gyro_bias_rad_s << ", \"accel_bias_m_s2\": " << accel_bias_m_s2
     << ", \"bias_seed\": " << bias_seed << ", \"sensor_noise\": {\"encoder_rad\": "
@@ -164,10 +165,11 @@ Actuation::Actuation(const dynamics::Model& model, std::span<const hal::JointCal
   if (!(profile.load_cell_bias_Nm >= 0) || !(profile.gyro_bias_rad_s >= 0) ||
       !(profile.accel_bias_m_s2 >= 0))
     throw std::invalid_argument("plant profile: expected bias levels >= 0");
-  if (profile.hydraulics) {
-    if (joints.size() != static_cast<std::size_t>(dynamics::kNumJoints))
-      throw std::invalid_argument("plant profile: the hydraulic actuators need the HAL's 12 joint "
-                                  "calibrations, found " + std::to_string(joints.size()));
+  if (profile.hydraulics && joints.size() != static_cast<std::size_t>(dynamics::kNumJoints))
+    throw std::invalid_argument("plant profile: the hydraulic actuators need the HAL's 12 joint "
+                                "calibrations, found " + std::to_string(joints.size()));
+  // the actuators: stepped with the hydraulics, their lock's damping without them
+  if (joints.size() == static_cast<std::size_t>(dynamics::kNumJoints)) {
     for (int j = 0; j < dynamics::kNumJoints; ++j) {
       const auto& lim = model.limits[static_cast<std::size_t>(j)];
       hyd_[static_cast<std::size_t>(j)] = std::make_unique<HydraulicActuator>(
@@ -176,36 +178,55 @@ Actuation::Actuation(const dynamics::Model& model, std::span<const hal::JointCal
     }
   }
   for (auto& slot : ring_) slot.setZero();
+  for (auto& slot : on_ring_) slot.fill(true);
 }
 
 Actuation::~Actuation() = default;
 
 const HydraulicActuator* Actuation::hydraulic(int joint) const noexcept {
-  return hyd_[static_cast<std::size_t>(joint)].get();
+  return profile_.hydraulics ? hyd_[static_cast<std::size_t>(joint)].get() : nullptr;
 }
 
 void Actuation::Reset(const dynamics::VectorJ& q) noexcept {
   for (auto& slot : ring_) slot.setZero();
+  for (auto& slot : on_ring_) slot.fill(true);
   head_ = 0;
   applied_.setZero();
+  lock_.setZero();
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
     if (hyd_[static_cast<std::size_t>(j)]) hyd_[static_cast<std::size_t>(j)]->Reset(q(j), 0.0);
     measured_(j) = bias_[static_cast<std::size_t>(j)];
   }
 }
 
-void Actuation::Step(const dynamics::VectorJ& u, const dynamics::VectorJ& q,
-                     const dynamics::VectorJ& qd) noexcept {
+void Actuation::Step(const dynamics::VectorJ& u, const std::array<bool, dynamics::kNumJoints>& on,
+                     const dynamics::VectorJ& q, const dynamics::VectorJ& qd) noexcept {
   // the delay line: the set-point given now comes out delay_cycles steps later
   const int n = profile_.delay_cycles + 1;
   ring_[static_cast<std::size_t>(head_)] = u;
+  on_ring_[static_cast<std::size_t>(head_)] = on;
   const dynamics::VectorJ& cmd = ring_[static_cast<std::size_t>((head_ + 1) % n)];
+  const std::array<bool, dynamics::kNumJoints>& cmd_on = on_ring_[static_cast<std::size_t>((head_ + 1) % n)];
   head_ = (head_ + 1) % n;
   for (int j = 0; j < dynamics::kNumJoints; ++j) {
+    const auto i = static_cast<std::size_t>(j);
     double out;
-    if (HydraulicActuator* h = hyd_[static_cast<std::size_t>(j)].get()) {
-      applied_(j) = h->Step(cmd(j), q(j), qd(j));
+    HydraulicActuator* h = hyd_[i].get();
+    lock_(j) = 0.0;
+    if (h != nullptr && profile_.hydraulics) {
+      // the pump off: nothing locks the joint (the board's loop at its 0 N·m stands for that)
+      applied_(j) = h->Step(cmd(j), q(j), qd(j), cmd_on[i] || !profile_.pump_on);
       out = h->torque_Nm();
+    } else if (!cmd_on[i]) {
+      // outputs off: no torque from the board, the joint locked by its closed valve
+      applied_(j) = 0.0;
+      // its damping, bounded so that the torque stays under the relief valve's (a leg swinging
+      // when its valve closes is stopped by at most that, not in one step)
+      if (h != nullptr && profile_.pump_on) {
+        const double b = h->LockDamping(q(j)), speed = std::abs(qd(j));
+        lock_(j) = speed * b > h->LockTorqueLimitNm(q(j)) ? h->LockTorqueLimitNm(q(j)) / speed : b;
+      }
+      out = 0.0;
     } else {
       if (passthrough_) {
         applied_(j) = cmd(j);  // ideal: exactly the set-point

@@ -49,6 +49,9 @@ struct PlantProfile {
   bool hydraulics = false;               // false: the caller's first-order lag (or ideal)
   HydraulicParams hydraulic;
   int delay_cycles = 0;                  // 0..kMaxDelayCycles
+  /// A board with its outputs off closes its valve and locks its joint (the pump running);
+  /// false: the pump is off and such a joint is free (an unpowered robot folding onto its stops).
+  bool pump_on = true;
   /// Sensor biases, drawn once from bias_seed, uniform in ±level: per joint a load-cell offset
   /// (N·m at the joint), per IMU axis a gyro (rad/s) and an accelerometer (m/s²) bias.
   double load_cell_bias_Nm = 0.0;
@@ -91,6 +94,10 @@ PlantProfile ProfileByName(std::string_view name, const std::string& what);
 /// actuator with its torque loop, or the first-order lag of SimulatedRobot's eq. (1) with its
 /// rate limit (lag_tau_s 0: ideal); the measured torque is the actuator's output at the end of
 /// the step (the rod's load cell / the HAA's torque sensor) plus the load-cell bias.
+/// A joint whose board has its outputs off applies nothing and is hydraulically locked: the
+/// hydraulics close its valve; without them, lock_damping_Nms() gives the locked joint's
+/// resistance (HydraulicActuator::LockDamping, from the HAL's calibrations; 0 without them),
+/// lowered at speed so that it never asks for more than the relief valve's torque.
 /// Step() allocates nothing and never throws.
 class Actuation {
  public:
@@ -103,7 +110,17 @@ class Actuation {
   /// At rest at the joint angles q with zero torque; the delay line emptied.
   void Reset(const dynamics::VectorJ& q) noexcept;
   /// One plant step: u the set-points (already clamped), q and qd the joints at the step's start.
-  void Step(const dynamics::VectorJ& u, const dynamics::VectorJ& q, const dynamics::VectorJ& qd) noexcept;
+  /// on: whether each board's outputs are on (they pass the delay line with the set-points).
+  void Step(const dynamics::VectorJ& u, const std::array<bool, dynamics::kNumJoints>& on,
+            const dynamics::VectorJ& q, const dynamics::VectorJ& qd) noexcept;
+  void Step(const dynamics::VectorJ& u, const dynamics::VectorJ& q, const dynamics::VectorJ& qd) noexcept {
+    std::array<bool, dynamics::kNumJoints> on;
+    on.fill(true);
+    Step(u, on, q, qd);
+  }
+  /// Per joint, the locked joint's damping this step (N·m·s/rad; 0 when its outputs are on or
+  /// the hydraulics model the lock themselves): the plant applies it implicitly (Plant::SetLockDamping).
+  const dynamics::VectorJ& lock_damping_Nms() const noexcept { return lock_; }
   /// What the plant applies this step (the mean over the step for the hydraulics).
   const dynamics::VectorJ& applied_Nm() const noexcept { return applied_; }
   /// The actuator's torque at the end of the step plus the load-cell bias (noise is the caller's).
@@ -115,9 +132,11 @@ class Actuation {
   double alpha_, rate_step_Nm_;
   bool passthrough_;  // no lag, no rate limit: the set-point itself
   std::array<dynamics::VectorJ, kMaxDelayCycles + 1> ring_{};
+  std::array<std::array<bool, dynamics::kNumJoints>, kMaxDelayCycles + 1> on_ring_{};
   int head_ = 0;
   std::array<double, dynamics::kNumJoints> bias_{};
-  std::array<std::unique_ptr<HydraulicActuator>, dynamics::kNumJoints> hyd_;
+  std::array<std::unique_ptr<HydraulicActuator>, dynamics::kNumJoints> hyd_;  // with calibrations
+  dynamics::VectorJ lock_ = dynamics::VectorJ::Zero();
   dynamics::VectorJ applied_ = dynamics::VectorJ::Zero();
   dynamics::VectorJ measured_ = dynamics::VectorJ::Zero();
 };

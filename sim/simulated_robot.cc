@@ -256,9 +256,11 @@ void SimulatedRobot::Step() noexcept {
   {
     const dynamics::VectorQ q = plant_->q();
     const dynamics::VectorV v = plant_->v();
-    actuation_->Step(u, q.tail<dynamics::kNumJoints>(), v.tail<dynamics::kNumJoints>());
+    actuation_->Step(u, setpoints_.enabled, q.tail<dynamics::kNumJoints>(),
+                     v.tail<dynamics::kNumJoints>());
   }
   tau_applied_ = actuation_->applied_Nm();
+  plant_->SetLockDamping(actuation_->lock_damping_Nms());
   // off the stand once every board is enabled AND the controller commands torque: a daemon in
   // STANDBY (enabled, 0 N·m) keeps the robot on its stand, as an operator would
   if (holding_ && all_enabled && commanding) holding_ = false;

@@ -6,8 +6,9 @@
 //
 // Models, per 1 ms step h:
 //  - actuator j (sim/plant_profile.h, Actuation; with the `realistic` profile HyQ's
-//    hydraulics and torque loop instead, after a transport delay): the board's set-point u (0
-//    when its outputs are disabled) is clamped to the joint's torque limit, then the applied
+//    hydraulics and torque loop instead, after a transport delay): the board's set-point u
+//    (a board whose outputs are off applies none: its closed valve locks the joint, see
+//    Actuation) is clamped to the joint's torque limit, then the applied
 //    torque follows a first-order lag with time constant T, discretised exactly for a set-point
 //    held over the step (zero-order hold):
 //      tau[k+1] = tau[k] + (1 - exp(-h / T)) (u[k] - tau[k])                    (1)

@@ -4,18 +4,6 @@
 #include <cmath>
 
 namespace hyq::servo {
-namespace {
-
-// the legs with a lost joint (a fault's sit-down holds them out of the stance set)
-std::array<bool, kNumFeet> LostLegs(const MotionInputs& in) noexcept {
-  std::array<bool, kNumFeet> legs{};
-  if (in.lost != nullptr)
-    for (int l = 0; l < kNumFeet; ++l) legs[static_cast<std::size_t>(l)] = in.lost->leg(l);
-  return legs;
-}
-
-}  // namespace
-
 // The phases' handlers and their table (motion_sequencer.h): each returns the next phase.
 struct MotionPhaseTable {
   using M = MotionSequencer;
@@ -54,9 +42,8 @@ struct MotionPhaseTable {
       const double c = std::cos(b.yaw), s = std::sin(b.yaw);
       v0_B = Eigen::Vector2d(c * b.v_W.x() + s * b.v_W.y(), -s * b.v_W.x() + c * b.v_W.y());
     }
-    m.excluded_ = m.sit_cause_ == SitDownCause::kFault ? LostLegs(in) : std::array<bool, kNumFeet>{};
     m.posture_.Start(in.q_rad, m.joints_->stance, m.config_.crouch_height_m,
-                     m.config_.sit_down_s, v0_B, 0.4, m.excluded_);
+                     m.config_.sit_down_s, v0_B, 0.4);
   }
 
   // outside ACTIVE nothing moves: the joint reference keeps its last value
@@ -75,8 +62,7 @@ struct MotionPhaseTable {
       for (std::size_t f = 0; f < kNumFeet; ++f) {
         if (!m.posture_.starts_on_ground(f) && in.contacts->probability[f] < 0.5)
           m.joints_->stance[f] = false;
-        if (!m.excluded_[f])  // a lost leg's foot reads no force: its healthy joints keep their gains
-          m.joints_->takeover[f] = std::min(m.joints_->takeover[f], in.contacts->probability[f]);
+        m.joints_->takeover[f] = std::min(m.joints_->takeover[f], in.contacts->probability[f]);
       }
     return m.phase_;
   }
@@ -209,11 +195,11 @@ MotionRequests MotionSequencer::RequestSitDown(SitDownCause cause,
                                                const MotionInputs& in) noexcept {
   MotionRequests r;
   if (cause == SitDownCause::kFault) {
-    // at once, wherever the feet are (the swing foot is lowered where it is); sitting down
-    // already, again from here only when a leg is newly lost
+    // at once, wherever the feet are (the swing foot is lowered where it is); a fault's sit-down
+    // under way goes on (a lost joint's board is off, its joint locked: its leg still carries)
     const bool sitting = phase_ == MotionPhase::kSitDown;
     if (!sitting && MotionPhaseTable::Of(phase_).sit == nullptr) return r;
-    const bool news = !sitting || sit_cause_ != SitDownCause::kFault || LostLegs(in) != excluded_;
+    const bool news = !sitting || sit_cause_ != SitDownCause::kFault;
     sit_cause_ = SitDownCause::kFault;
     if (!news) return r;
     sit_pending_ = false;

@@ -25,7 +25,7 @@
 //              (q̇_ref by the product rule; q̈_ref = s q̈_r)
 //   SIT-DOWN   PostureMove from the measured posture down to crouch_height_m in sit_down_s, the
 //              reference's stance feet on the ground, its base velocity braked to rest; after a
-//              fault, a leg with a lost joint out of the stance set, its foot moved with the others
+//              fault at once, every leg in it (a lost joint's board is off: its joint locked)
 //   SETTLE     after a sit-down, until the next enable: while the safety state machine damps (not
 //              a fault's cut) the damping is the sit-down's, held until every joint has been slower
 //              than settle_speed_rad_s for kSettledS, at most settle_max_s
@@ -52,8 +52,8 @@ const char* ToString(MotionPhase p) noexcept;
 enum class SitDownCause : std::uint8_t {
   kStop,     // a controlled stop: damping, then STOPPED
   kDisable,  // a disable: damping, then STANDBY at 0 N·m
-  kFault,    // a fault's controlled or degraded stop (servo/runtime/stop_class.h): at once,
-             // without the lost legs; damping, then FAULT
+  kFault,    // a fault's controlled or degraded stop (servo/runtime/stop_class.h): at once;
+             // damping, then FAULT
 };
 
 /// The durations and limits of the phases (0 s turns a posture move off).
@@ -81,8 +81,6 @@ struct MotionInputs {
   /// The feet's detected contact for the reference's contact-aware phases (Reference::Sample);
   /// null: the gait's clock alone.
   const FootContacts* contacts = nullptr;
-  /// What a fault's stop does without (a leg with a lost joint sits out); null: nothing lost.
-  const LostInputs* lost = nullptr;
 };
 
 /// What the sequencer asks of the safety state machine (the loop relays it, in this order).
@@ -110,8 +108,8 @@ class MotionSequencer {
   void Enable(const MotionInputs& in) noexcept;
   /// A controlled stop or a disable while ACTIVE (the caller checks sits_down()): SIT-DOWN now or
   /// once every foot is down. Ignored while sitting down already. A fault (kFault) sits down at
-  /// once from the feet where they are, and again from where it is when a leg is newly lost;
-  /// it overrides a stop's or a disable's cause.
+  /// once from the feet where they are (a later fault lets it go on); it overrides a stop's or a
+  /// disable's cause.
   MotionRequests RequestSitDown(SitDownCause cause, const MotionInputs& in) noexcept;
   /// The reference stage, every cycle: writes the joint reference of the phase (nothing outside
   /// ACTIVE), and in SETTLE decides the damping's hold. False when a posture move's inverse
@@ -152,7 +150,6 @@ class MotionSequencer {
   dynamics::VectorJ q0_ = dynamics::VectorJ::Zero();  // where the enable ramp (1) starts
   bool sit_pending_ = false;
   SitDownCause sit_cause_ = SitDownCause::kStop;
-  std::array<bool, kNumFeet> excluded_{};  // the legs the sit-down holds out (a fault's)
   double sit_wait_s_ = 0.0;
   double settled_s_ = 0.0;                 // SETTLE: how long every joint has been at rest
   bool settling_ = false, hold_damping_ = false;

@@ -17,15 +17,14 @@ PostureMove::PostureMove(const dynamics::Model& model) : model_(model), legs_(mo
 
 void PostureMove::Start(const dynamics::VectorJ& q, const std::array<bool, kNumFeet>& on_ground,
                         double h1_m, double duration_s, const Eigen::Vector2d& v0_B,
-                        double lower_fraction,
-                        const std::array<bool, kNumFeet>& excluded) noexcept {
+                        double lower_fraction) noexcept {
   std::array<Eigen::Vector3d, kNumFeet> p_BF;
   double h0 = 0.0;
   int n = 0;
   for (int leg = 0; leg < kNumFeet; ++leg) {
     const auto l = static_cast<std::size_t>(leg);
     p_BF[l] = legs_.Foot(leg, q.segment<3>(3 * leg));
-    if (on_ground[l] && !excluded[l]) {
+    if (on_ground[l]) {
       h0 += model_.feet[l].radius_m - p_BF[l].z();  // base height that puts this foot on z = r
       ++n;
     }
@@ -44,7 +43,6 @@ void PostureMove::Start(const dynamics::VectorJ& q, const std::array<bool, kNumF
   lower_s_ = std::clamp(lower_fraction, 0.05, 1.0) * duration_s_;
   brake_s_ = std::min(duration_s_, 0.3);
   v0_B_ = v0_B.allFinite() ? v0_B : Eigen::Vector2d::Zero();
-  excluded_ = excluded;
   for (int leg = 0; leg < kNumFeet; ++leg) {
     const auto l = static_cast<std::size_t>(leg);
     p_WF0_[l] = Eigen::Vector3d(0.0, 0.0, h0) + p_BF[l];
@@ -105,11 +103,9 @@ bool PostureMove::Sample(double t, JointReference* out) noexcept {
       out->qd.segment<3>(3 * leg).setZero();
       out->qdd.segment<3>(3 * leg).setZero();
     }
-    // a lowered foot carries weight once it is down, taking over as a landed trot foot does; an
-    // excluded leg's foot moves as the others (it follows the trunk down instead of propping
-    // it up), on its leg's stance gains, but the controller counts on no force from it
-    out->stance[l] = !excluded_[l] && (on_ground_[l] || t >= lower_s_);
-    out->takeover[l] = on_ground_[l] || excluded_[l] ? 1.0 : std::clamp((t - lower_s_) / kTakeoverS, 0.0, 1.0);
+    // a lowered foot carries weight once it is down, taking over as a landed trot foot does
+    out->stance[l] = on_ground_[l] || t >= lower_s_;
+    out->takeover[l] = on_ground_[l] ? 1.0 : std::clamp((t - lower_s_) / kTakeoverS, 0.0, 1.0);
     out->friction_takeover[l] = 1.0;
   }
   last_q_ = out->q;

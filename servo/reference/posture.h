@@ -28,14 +28,12 @@ class PostureMove {
   /// the one that puts the `on_ground` feet on the ground (their mean); the feet not on the
   /// ground are lowered onto it in the first `lower_fraction` of the move.
   /// `v0_B`: the base's horizontal velocity at the start (base frame, m/s), braked to rest in
-  /// min(duration, 0.3 s). `excluded`: legs that cannot be counted on to carry (a fault's lost
-  /// joint): their feet move as the others' do (following the trunk down, not propping it up)
-  /// but out of the stance set. The base does not move over the other feet's triangle: on ice
-  /// the ground gives the trunk about 1 m/s² sideways, and the 10-16 cm to its centroid take
-  /// about a second, the lost corner some 0.2 s to drop (docs/servo.md, "Graded stops").
+  /// min(duration, 0.3 s). A fault's lost joint needs nothing of it: the lost board is off, its
+  /// valve closed, the joint locked, and its leg carries as the others do (docs/servo.md,
+  /// "Graded stops").
   void Start(const dynamics::VectorJ& q, const std::array<bool, kNumFeet>& on_ground, double h1_m,
              double duration_s, const Eigen::Vector2d& v0_B = Eigen::Vector2d::Zero(),
-             double lower_fraction = 0.4, const std::array<bool, kNumFeet>& excluded = {}) noexcept;
+             double lower_fraction = 0.4) noexcept;
 
   /// The joint reference at `t` seconds into the move (t ≥ duration: the end posture, at rest);
   /// false when a leg's inverse kinematics did not solve (the previous sample stands).
@@ -57,7 +55,6 @@ class PostureMove {
   Eigen::Vector2d v0_B_ = Eigen::Vector2d::Zero();
   std::array<Eigen::Vector3d, kNumFeet> p_WF0_{};  // feet at the start, base at (0, 0, h0)
   std::array<bool, kNumFeet> on_ground_{};
-  std::array<bool, kNumFeet> excluded_{};
   dynamics::VectorJ last_q_ = dynamics::VectorJ::Zero();
   Eigen::Vector3d last_p_B_ = Eigen::Vector3d::Zero();
 };

@@ -182,7 +182,6 @@ MotionInputs ServoLoop::MotionNow() const noexcept {
   in.active = safety_.mode() == ServoMode::kActive;
   in.damping = safety_.mode() == ServoMode::kDamping;
   in.damping_cut = safety_.damping_cut();
-  in.lost = &lost_;
   in.cycles_in_mode = safety_.cycles_in_mode();
   in.contacts = &contacts_;
   for (int j = 0; j < kNumJoints; ++j) {
@@ -239,6 +238,12 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
     else
       Relay(sequencer_.RequestSitDown(SitDownCause::kFault, MotionNow()));
   }
+  // during the stop, a lost joint's board goes out of OP, its outputs off: a hydraulic board's
+  // valve closes and locks the joint where it is (one still in OP would follow 0 N·m and let it
+  // go limp); the acknowledgement in FAULT asks every board back to OP
+  if (safety_.mode() == ServoMode::kActive || safety_.mode() == ServoMode::kDamping)
+    for (int j = 0; j < kNumJoints; ++j)
+      if (lost_.joint[static_cast<std::size_t>(j)]) hal_.ReleaseJoint(j);
   // the device scan only matters while an acknowledgement waits for the devices
   if (safety_.acknowledge_pending())
     safety_.Update({.inputs_ok = !input_fault, .devices_in_op = hal_.AllIn(hal::DeviceState::kOp)});

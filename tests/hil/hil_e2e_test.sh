@@ -539,6 +539,9 @@ for t in 7 8 9 10 11 12 13 14; do
   "$cmd" --key "$out/robot.key" --sender op@hil ack
 done
 wait_sim 14.5 || { echo "recover: the simulation did not reach 14.5 s" >&2; kill -TERM \$servod \$sim; exit 1; }
+# the channel takes commands at most commands.max_rate_hz (20 Hz) apart in wall time, and half a
+# second of a resting robot's lock-step can take less than 50 ms: the enable waits out the limit
+sleep 0.2
 "$cmd" --key "$out/robot.key" --sender op@hil enable
 # the second ACTIVE ends with the run's duration; a daemon left in FAULT would never end
 for i in \$(seq 1200); do kill -0 \$servod 2>/dev/null || break; sleep 0.1; done
@@ -548,7 +551,7 @@ kill -TERM \$sim; wait \$sim
 exit \$rc
 EOS
     chmod +x "$out/recover.sh"
-    unshare -n "$out/recover.sh" || { tail -n 20 "$out/servod.log" "$out/sim.log"; fail "the recovery run failed"; }
+    unshare -n "$out/recover.sh" || { tail -n 20 "$out/servod.log" "$out/sim.log"; "$py" -c "import json; print('hil_e2e_test: command channel', json.load(open('$out/servod.json'))['command_channel'])"; fail "the recovery run failed"; }
     "$py" -c "import json; [print('hil_e2e_test: event', e['cycle'], e['time_s'], e['from'], '->', e['to'], e['reason'], e['stop'], e['detail']) for e in json.load(open('$out/servod.json'))['event_log']]"
     # the fault's degraded sit-down into FAULT, the acknowledgement, the second enable, the stop
     check_json "[e['reason'] for e in s['event_log'] if e['stop'] == 'degraded'][:1] == ['input_missing']"

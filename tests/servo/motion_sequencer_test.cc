@@ -217,6 +217,37 @@ TEST(MotionSequencer, SitDownWaitsUntilEveryFootIsDown) {
   EXPECT_EQ(end.cause, SitDownCause::kStop) << "a stop: damping, then STOPPED";
 }
 
+// A fault's sit-down starts at once, from the footholds of the moment, with every leg in the
+// stance set (a lost joint's board is off, its valve closed: the joint is locked and its leg
+// carries); a second fault during it lets it go on, a stop's sit-down under way becomes the
+// fault's and starts again from where the robot is
+TEST(MotionSequencer, AFaultSitsDownAtOnceOnEveryLeg) {
+  MotionConfig c = NoMoves();
+  c.sit_down_s = 0.3;
+  Rig rig(c);
+  rig.seq.Enable(rig.in);
+  for (int k = 0; k < 600; ++k) (void)rig.Cycle();
+  ASSERT_TRUE(rig.seq.Sample(rig.in));
+  EXPECT_TRUE(rig.seq.RequestSitDown(SitDownCause::kStop, rig.in).sit_down_began);
+  for (int k = 0; k < 50; ++k) (void)rig.Cycle();
+  MotionRequests r = rig.seq.RequestSitDown(SitDownCause::kFault, rig.in);
+  EXPECT_TRUE(r.sit_down_began) << "a stop's sit-down becomes the fault's";
+  EXPECT_EQ(r.cause, SitDownCause::kFault);
+  int cycles = 0;
+  for (MotionRequests m; cycles < 1000 && !m.sit_down_ended; ++cycles) {
+    ASSERT_TRUE(rig.seq.Sample(rig.in));
+    for (int f = 0; f < 4; ++f) EXPECT_TRUE(rig.joints.stance[static_cast<std::size_t>(f)]) << f;
+    if (cycles == 100) {
+      EXPECT_FALSE(rig.seq.RequestSitDown(SitDownCause::kFault, rig.in).sit_down_began);
+    }
+    m = rig.seq.Advance(rig.in);
+    if (m.sit_down_ended) {
+      EXPECT_EQ(m.cause, SitDownCause::kFault) << "damping, then FAULT";
+    }
+  }
+  EXPECT_EQ(cycles, 300) << "one sit-down of sit_down_s from the fault on";
+}
+
 // a reference that keeps a foot in the air (a trot with a duty factor of 0.5 never has all four
 // down between its pairs' switches) still sits down after kMaxSitWaitS
 TEST(MotionSequencer, SitDownWaitsAtMostOneSecond) {

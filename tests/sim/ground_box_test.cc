@@ -344,6 +344,7 @@ TEST(GroundBox, TheInProcessRigStandsWithOneFootOnAStep) {
 TEST(GroundBox, TheTrunkLandingOnABoxIsAFall) {
   SimulatedRobotConfig rc = testing::Standing();
   rc.hold = false;
+  rc.profile.pump_on = false;  // unpowered: the legs fold
   rc.fall_height_m = 0.0;
   rc.plant.boxes = {{-0.2, 0.2, -0.1, 0.1, 0.3}};
   Robot r(rc);
@@ -375,6 +376,7 @@ TEST(GroundBox, TheTrunkLandingOnABoxIsAFall) {
 TEST(GroundBox, TheFallHeightIsAboveTheGroundUnderTheBase) {
   SimulatedRobotConfig rc = testing::Standing();
   rc.hold = false;
+  rc.profile.pump_on = false;  // unpowered: the legs fold
   rc.fall_height_m = 0.35;
   rc.plant.boxes = {{-1.5, 1.5, -1.0, 1.0, 0.2}};
   Robot r(rc);

@@ -265,6 +265,47 @@ TEST(Hydraulics, VelocityCompensationHoldsTheTorqueWhileTheJointMoves) {
   EXPECT_LT(with, 0.1 * without);
 }
 
+// A board whose outputs are off drives no valve current: the spool centres, the ports close and
+// the joint is hydraulically locked. A knee carrying 80 N·m of load (a trunk share on a 1-DOF
+// inertia) creeps by the lands' leakage alone, in the direction of the load and slowly, about as
+// fast as LockDamping (what the profiles without hydraulics apply) says; with the outputs on and
+// a zero set-point the same joint gives way at once.
+TEST(Hydraulics, AnOffBoardLocksItsJointWhichCreepsByTheLandsLeakage) {
+  constexpr int kKnee = 2;
+  constexpr double kInertia = 0.5, kLoadNm = -80.0;  // kg·m², N·m
+  auto run = [&](bool on, double* mean_qd) {
+    HydraulicActuator a = MakeActuator(kKnee);
+    double q = HyqModel().q_standing(kKnee), qd = 0.0;
+    a.Reset(q, -kLoadNm);
+    double sum = 0.0, fastest = 0.0;
+    int n = 0;
+    for (int k = 0; k < 1500; ++k) {
+      const double tau = a.Step(0.0, q, qd, on);
+      qd += kStep * (tau + kLoadNm) / kInertia;
+      q += kStep * qd;
+      fastest = std::max(fastest, std::abs(qd));
+      if (k >= 500) {
+        sum += qd;
+        ++n;
+      }
+    }
+    *mean_qd = sum / n;
+    return fastest;
+  };
+  double locked_qd = 0, limp_qd = 0;
+  const double locked_peak = run(false, &locked_qd), limp_peak = run(true, &limp_qd);
+  HydraulicActuator a = MakeActuator(kKnee);
+  const double b = a.LockDamping(HyqModel().q_standing(kKnee));
+  std::printf("lf_kfe under %.0f N·m: locked creep %.3f rad/s (peak %.3f), LockDamping %.0f N·m·s/rad "
+              "(%.3f rad/s); outputs on at 0 N·m: peak %.1f rad/s; land leakage %.3g m³/(s·Pa)\n",
+              kLoadNm, locked_qd, locked_peak, b, kLoadNm / b, limp_peak, a.land_leakage());
+  EXPECT_LT(locked_qd, 0.0);                  // with the load
+  EXPECT_LT(locked_peak, 0.5);                // held: no fall
+  EXPECT_GT(limp_peak, 10.0 * locked_peak);   // a torque loop at 0 N·m gives way
+  EXPECT_GT(b, 100.0);
+  EXPECT_LT(std::abs(locked_qd), 3.0 * std::abs(kLoadNm) / b);
+}
+
 TEST(Hydraulics, BadParametersAreRefused) {
   HydraulicParams p;
   p.supply_pressure_Pa = -1;
@@ -343,6 +384,59 @@ TEST(Actuation, LoadCellBiasWithinItsLevelAndFixedBySeed) {
   EXPECT_NE(other.LoadCellBiases(), biases);
   EXPECT_LE(PlantProfile::Realistic().GyroBias().cwiseAbs().maxCoeff(),
             PlantProfile::Realistic().gyro_bias_rad_s);
+}
+
+// A board with its outputs off applies nothing; without the hydraulics its joint gets the lock's
+// damping (from the calibrations; none without them), with them the valve itself locks it.
+TEST(Actuation, ABoardWithItsOutputsOffLocksItsJoint) {
+  const dynamics::VectorJ q = HyqModel().q_standing, qd = dynamics::VectorJ::Zero();
+  const dynamics::VectorJ u = dynamics::VectorJ::Constant(10.0);
+  std::array<bool, dynamics::kNumJoints> on;
+  on.fill(true);
+  on[2] = on[3] = false;
+  for (const double lag : {0.0, 0.01}) {
+    Actuation a(HyqModel(), Hal().joints, PlantProfile::Ideal(), lag, 0.0, kStep);
+    a.Reset(q);
+    a.Step(u, on, q, qd);
+    for (int j = 0; j < dynamics::kNumJoints; ++j) {
+      const bool off = j == 2 || j == 3;
+      EXPECT_EQ(a.applied_Nm()(j) == 0.0, off) << j;
+      EXPECT_EQ(a.lock_damping_Nms()(j) > 100.0, off) << j;
+    }
+    EXPECT_DOUBLE_EQ(a.lock_damping_Nms()(2), MakeActuator(2).LockDamping(q(2)));
+    // a leg swinging at 8 rad/s when its valve closes: no more than the relief valve's torque
+    const dynamics::VectorJ fast = dynamics::VectorJ::Constant(8.0);
+    a.Step(u, on, q, fast);
+    const double limit = MakeActuator(2).LockTorqueLimitNm(q(2));
+    EXPECT_NEAR(a.lock_damping_Nms()(2) * 8.0, limit, 1e-9 * limit);
+    EXPECT_GT(limit, 100.0);
+    EXPECT_LT(limit, 500.0);
+  }
+  Actuation none(HyqModel(), {}, PlantProfile::Ideal(), 0.0, 0.0, kStep);
+  none.Step(u, on, q, qd);
+  EXPECT_EQ(none.lock_damping_Nms().cwiseAbs().maxCoeff(), 0.0);
+  PlantProfile realistic = PlantProfile::Realistic();
+  realistic.delay_cycles = 0;  // off from the first step
+  Actuation hyd(HyqModel(), Hal().joints, realistic, 0.0, 0.0, kStep);
+  Actuation other(HyqModel(), Hal().joints, realistic, 0.0, 0.0, kStep);
+  hyd.Reset(q);
+  other.Reset(q);
+  for (int k = 0; k < 50; ++k) {
+    hyd.Step(u, on, q, qd);
+    other.Step(-u, on, q, qd);
+  }
+  // the locked joint's torque is the oil's, whatever its set-point
+  EXPECT_EQ(hyd.applied_Nm()(2), other.applied_Nm()(2));
+  EXPECT_NEAR(other.applied_Nm()(1), -10.0, 0.5);
+  EXPECT_EQ(hyd.lock_damping_Nms().cwiseAbs().maxCoeff(), 0.0);  // the valve model locks it
+  EXPECT_LT(std::abs(hyd.hydraulic(2)->spool()), 1e-6);           // centred
+  EXPECT_NEAR(hyd.applied_Nm()(1), 10.0, 0.5);                    // the torque loop at work
+  // the pump off: nothing locks a joint whose board is off
+  PlantProfile off = PlantProfile::Ideal();
+  off.pump_on = false;
+  Actuation free(HyqModel(), Hal().joints, off, 0.0, 0.0, kStep);
+  free.Step(u, on, q, qd);
+  EXPECT_EQ(free.lock_damping_Nms().cwiseAbs().maxCoeff(), 0.0);
 }
 
 TEST(Actuation, HydraulicStepAllocatesNothing) {

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # hyq-viewer live beside a HIL run: headless Chromium (playwright-core) opens the page, then
-# scripts/hil.sh trots for 15 s (lock-step, niced: ~6 s of wall time) in the same network
+# scripts/hil.sh trots for 30 s (lock-step, niced: ~10 s of wall time, room for the screenshot
+# on a loaded machine, where the browser draws slowly) in the same network
 # namespace with hyq-sim's truth on LCM (--sim-arg --lcm-truth).
 # viewer_page.mjs checks that the page connects, that the drawn robot moves as it trots, that the
 # stance count shown equals HYQ_CONTACT of the same cycle in lcm-logger's record, that the truth
@@ -29,7 +30,7 @@ done
 
 # niced: lock-step runs as fast as two cores allow and would starve the browser (its virtual
 # clock and the daemon's CPU-time deadlines do not care how long the run takes in wall time)
-HYQ_HIL_NETNS=1 nice -n 19 "$src/scripts/hil.sh" --duration 15 --build "$build" --out "$work/hil" --quiet \
+HYQ_HIL_NETNS=1 nice -n 19 "$src/scripts/hil.sh" --duration 30 --build "$build" --out "$work/hil" --quiet \
   --sim-arg --lcm-truth
 hil_rc=$?
 cp "$work/hil/servod.log" "$work/hil/sim.log" "$art/" 2>/dev/null
