@@ -16,7 +16,9 @@ fault at all). Then:
   controlled, degraded   sat down: the trunk down at <= 0.5 m/s and tilted under 30 deg (hyq-sim's
                          sat_down), no fall, the daemon stopped
   cut                    the trunk's contact speed is reported; at most 0.5 m/s counts as down
-                         gently, above as the measured best (the damping's, safety.damping_Nms_per_rad)
+                         gently, above as the measured best (the damping's, safety.damping_Nms_per_rad);
+                         a trunk that never touched the ground is "held up": FAULT took the boards
+                         out of OP with the robot still up, its joints locked by their closed valves
 --quick: one target per fault kind per plant (seeded), the references taking turns: the CI set.
 --rerun-failed: the runs that were not ok in an earlier fault_matrix.json, again (same specs).
 Exit 1 when a run gave another stop class than its kind's, a run of class none faulted or fell,
@@ -123,7 +125,11 @@ def tables(rows):
             touched = [r for r in rs if r["sat_down"] or r["fell"]]
             worst = max((r["contact_m_s"] for r in touched), default=0.0)
             tilt = max((r["tilt_deg"] for r in touched), default=0.0)
-            out.append(f"| {kind} | {exp} | {plant} | {len(rs)} | {down} | {sum(r['fell'] for r in rs)} | "
+            # a cut whose trunk never reached the ground: FAULT took every board out of OP with the
+            # robot still up, its joints locked by their closed valves
+            held = len(rs) - len(touched)
+            gently = f"{down} ({held} held up)" if exp == "cut" and held else f"{down}"
+            out.append(f"| {kind} | {exp} | {plant} | {len(rs)} | {gently} | {sum(r['fell'] for r in rs)} | "
                        f"{worst:.2f} | {tilt:.0f} |")
     return "\n".join(out)
 

@@ -15,7 +15,7 @@ struct SafetyLimits {
   double max_gyro_rad_s = 20.0;
   double max_accel_m_s2 = 200.0;
   double max_tilt_rad = 1.2;            // estimated roll or pitch beyond this → fault
-  double damping_Nms_per_rad = 150.0;   // DAMPING (a cut, a damp command): τ = −D q̇
+  double damping_Nms_per_rad = 100.0;   // DAMPING (a cut, a damp command): τ = −D q̇
   double damping_duration_s = 1.0;      // then zero torque (FAULT or STOPPED)
   bool damp_on_bad_command = true;      // a refused command while ACTIVE → DAMPING
 

@@ -25,8 +25,10 @@ case "$case" in
     "${hil[@]}" --duration 10
     "${acc[@]}" --max-trot-vel-rms 0.6 --max-trot-vel-max 8 --max-yaw-drift 10 ;;
   realistic_mu0.1)
+    # the yaw: the drawn z gyro bias (-2.1 mrad/s) would turn it by 21 mrad over the trot; the
+    # 2 s stand-up is too short to learn it fully (9-11 mrad measured, docs/estimation.md)
     "${hil[@]}" --duration 10 --sim-arg=--profile --sim-arg=realistic
-    "${acc[@]}" --max-trot-vel-rms 1.0 --max-trot-vel-max 8 --max-yaw-drift 10 ;;
+    "${acc[@]}" --max-trot-vel-rms 1.0 --max-trot-vel-max 8 --max-yaw-drift 15 ;;
   ideal_mu1.0)
     "${hil[@]}" --duration 10 --mu 1.0
     "${acc[@]}" --max-trot-vel-rms 1.0 --max-trot-vel-max 8 --max-yaw-drift 10 --max-rest-vel-rms 2.0 ;;
