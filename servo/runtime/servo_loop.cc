@@ -228,16 +228,14 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
   const Fault input_fault = checker_.Check(hal_, read_status, safety_.expects_devices_in_op());
   Fail(input_fault);
   // during a fault's sit-down the first fault found each cycle may hide a device lost later:
-  // the sit-down leaves it out too, or is cut when the two together are more than one device
-  if (safety_.fault_stop() != StopClass::kNone && ScanLost(hal_, &lost_)) {
-    if (StopClassOf(lost_) == StopClass::kCut)
-      safety_.Report(MakeFault(EventReason::kInputMissing, -1, -1,
-                               "more inputs lost during the sit-down (%d legs%s): cut",
-                               lost_.legs(), lost_.imu ? " and the IMU" : ""),
-                     StopClass::kCut);
-    else
-      Relay(sequencer_.RequestSitDown(SitDownCause::kFault, MotionNow()));
-  }
+  // its board is switched off too (below) and the sit-down goes on, or it is cut when the two
+  // together are more than one device
+  if (safety_.fault_stop() != StopClass::kNone && ScanLost(hal_, &lost_) &&
+      StopClassOf(lost_) == StopClass::kCut)
+    safety_.Report(MakeFault(EventReason::kInputMissing, -1, -1,
+                             "more inputs lost during the sit-down (%d legs%s): cut",
+                             lost_.legs(), lost_.imu ? " and the IMU" : ""),
+                   StopClass::kCut);
   // during the stop, a lost joint's board goes out of OP, its outputs off: a hydraulic board's
   // valve closes and locks the joint where it is (one still in OP would follow 0 N·m and let it
   // go limp); the acknowledgement in FAULT asks every board back to OP
