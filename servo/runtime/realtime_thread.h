@@ -22,6 +22,8 @@ struct RealtimeConfig {
                                   // see ResolveCpu
   bool lock_memory = true;        // mlockall(MCL_CURRENT | MCL_FUTURE)
   std::uint32_t prefault_stack_kib = 256;  // stack touched before the first cycle
+  bool require_rt_host = false;   // hyq-servod --check-host refuses (exit 4) a host not fit for
+                                  // real time (servo/runtime/host_check.h); else it only warns
 
   template <class A>
   void Serialize(A* a) {
@@ -33,6 +35,9 @@ struct RealtimeConfig {
     a->Visit(hal::Key("lock_memory", &lock_memory).Doc("mlockall(MCL_CURRENT | MCL_FUTURE)"));
     a->Visit(hal::Key("prefault_stack_kib", &prefault_stack_kib).In(0, 8192).Unit("KiB")
                  .Doc("stack touched before the first cycle"));
+    a->Visit(hal::Key("require_rt_host", &require_rt_host)
+                 .Doc("hyq-servod --check-host exits 4 unless every item of the host check is ok "
+                      "(docs/realtime_host.md); false: it warns only"));
   }
 };
 

@@ -82,6 +82,26 @@ for f in /dev/zero "$work"; do
   else echo "FAIL config $f (exit $rc): $out"; fails=$((fails + 1)); fi
 done
 
+# the host check: every item reported with a verdict; exit 0 when only warning, 4 with
+# realtime.require_rt_host when an item is not ok (this machine's own verdicts decide which)
+out=$("$servod" --check-host --check-host-seconds 0.2 --config "$good" 2>&1); rc=$?
+items=0
+for name in "kernel preemption" "servo CPU isolation" "servo CPU interrupts" "frequency governor" \
+            "idle states" "memlock limit" "rtprio limit" "RT throttling" "wake-up latency"; do
+  grep -qE "^\[ ?(ok|warn|FAIL) ?\] $name: " <<< "$out" && items=$((items + 1))
+done
+if ((rc == 0 && items == 9)); then echo "ok   --check-host: 9 items"; else echo "FAIL --check-host (exit $rc, $items of 9 items): $out"; fails=$((fails + 1)); fi
+sed -e 's|^  require_rt_host: false|  require_rt_host: true|' "$good" > "$work/require_rt.yaml"
+grep -q '^  require_rt_host: true' "$work/require_rt.yaml" || { echo "FAIL: no realtime.require_rt_host in $good"; fails=$((fails + 1)); }
+out=$("$servod" --check-host --check-host-seconds 0.2 --config "$work/require_rt.yaml" 2>&1); rc=$?
+if grep -qE "^\[ *(warn|FAIL)\]" <<< "$out"; then want=4; else want=0; fi
+if ((rc == want)) && [[ "$out" == *"hyq-servod: host check: "* ]]; then
+  echo "ok   --check-host with require_rt_host: exit $rc"
+else echo "FAIL --check-host with require_rt_host (exit $rc, expected $want): $out"; fails=$((fails + 1)); fi
+out=$("$servod" --check-host --check-host-seconds -1 2>&1); rc=$?
+if ((rc == 2)) && [[ "$out" == *"--check-host-seconds"* ]]; then echo "ok   bad --check-host-seconds"
+else echo "FAIL bad --check-host-seconds (exit $rc): $out"; fails=$((fails + 1)); fi
+
 # bad command-line flags name the flag, what was expected and what was found
 out=$("$servod" --clock warp 2>&1); rc=$?
 if ((rc == 2)) && [[ "$out" == *"--clock"* && "$out" == *"realtime or lockstep"* && "$out" == *"warp"* ]]; then

@@ -29,6 +29,7 @@
 #include "hal/clock.h"
 #include "hal/hal.h"
 #include "servo/command/command_auth.h"
+#include "servo/runtime/host_check.h"
 #include "servo/runtime/realtime_thread.h"
 #include "servo/runtime/servo_loop.h"
 #include "servo/runtime/servo_runner.h"
@@ -41,7 +42,8 @@ using hyq::servo::ServoMode;
 
 struct Options {
   std::string config = HYQ_DEFAULT_SERVO_CONFIG;
-  bool check = false;
+  bool check = false, check_host = false;
+  double check_host_s = 2.0;
   bool quiet = false;
   bool exit_on_fault = false;
   std::map<std::string, std::string> interfaces;
@@ -55,12 +57,19 @@ struct Options {
   int overrun_cycles = 0;
 };
 
-constexpr const char* kHelp = R"(usage: hyq-servod [--config FILE] [--check] [options]
+constexpr const char* kHelp = R"(usage: hyq-servod [--config FILE] [--check | --check-host] [options]
 The HyQ servo daemon: every period it reads the joints and the IMU over CAN (HAL), estimates
 the base state, follows the reference with the configured controller (two-stage contact ID by
 default), checks everything (safety) and writes the joint torques; LCM telemetry on the side.
   --config FILE          servo configuration (default )" HYQ_DEFAULT_SERVO_CONFIG R"()
   --check                validate the configuration (and the HAL file and URDF it names), exit
+  --check-host           whether this computer can hold the real-time loop as configured: the
+                         kernel's preemption, the servo CPU's isolation, interrupts, governor
+                         and idle states, the memlock and rtprio limits, RT throttling, and the
+                         wake-up latency measured on the servo CPU; each item with its fix
+                         (docs/realtime_host.md). Exit 0, or 4 when realtime.require_rt_host is
+                         true and an item is not ok
+  --check-host-seconds S the wake-up measurement's length (default 2; 0: none)
   --interface BUS=SPEC   open bus BUS on SPEC (socketcan:can0, udp::43101, ...) instead of the
                          configured interface
   --clock realtime|lockstep
@@ -88,7 +97,8 @@ default), checks everything (safety) and writes the joint torques; LCM telemetry
   --quiet                no progress line
   -h, --help             this text
 Exit status: 0 after a controlled stop, 1 configuration or start-up error, 2 bad command line,
-3 stopped in FAULT (--exit-on-fault).
+3 stopped in FAULT (--exit-on-fault), 4 a host not fit for real time (--check-host with
+realtime.require_rt_host).
 )";
 
 Options Parse(hyq::cli::CommandLine& cl) {
@@ -96,6 +106,8 @@ Options Parse(hyq::cli::CommandLine& cl) {
   while (cl.Next()) {
     if (cl.Flag("--config")) o.config = cl.Value();
     else if (cl.Flag("--check")) o.check = true;
+    else if (cl.Flag("--check-host")) o.check_host = true;
+    else if (cl.Flag("--check-host-seconds")) o.check_host_s = cl.Number(0.0, 600.0);
     else if (cl.Flag("--quiet")) o.quiet = true;
     else if (cl.Flag("--auto-enable")) o.auto_enable = true;
     else if (cl.Flag("--commands")) o.commands = true;
@@ -297,6 +309,27 @@ int main(int argc, char** argv) {
   } catch (const std::exception& e) {
     std::fprintf(stderr, "hyq-servod: %s\n", e.what());
     return 1;
+  }
+  if (opt.check_host) {
+    hyq::servo::HostCheckSettings hs;
+    hs.cpu = hyq::servo::ResolveCpu(config.realtime.cpu, true, -1);
+    hs.priority = config.realtime.priority;
+    hs.lock_memory = config.realtime.lock_memory;
+    hs.period_s = config.period_s();
+    hs.budget_fraction = config.deadline.budget_fraction;
+    hs.measure_s = opt.check_host_s;
+    const std::vector<hyq::servo::HostItem> items = hyq::servo::CheckHost(hs);
+    std::fputs(hyq::servo::FormatHostReport(items).c_str(), stdout);
+    const hyq::servo::HostVerdict worst = hyq::servo::Worst(items);
+    const bool refuse = config.realtime.require_rt_host && worst != hyq::servo::HostVerdict::kOk;
+    std::printf("hyq-servod: host check: %s%s\n",
+                worst == hyq::servo::HostVerdict::kOk ? "a real-time host"
+                : worst == hyq::servo::HostVerdict::kWarn ? "runs, with less real-time margin than it should have"
+                                                          : "not fit for the loop as configured",
+                refuse ? " (realtime.require_rt_host: refused)"
+                : worst != hyq::servo::HostVerdict::kOk ? " (warnings only: realtime.require_rt_host is false)"
+                                                         : "");
+    return refuse ? 4 : 0;
   }
   if (opt.check) {
     std::printf("%s: OK (%s, %g Hz, %s clock, %zu buses, reference %s, URDF %s)\n",
