@@ -8,20 +8,22 @@
 #       RUNS times; cyclictest beside each run for the whole of it (started with hil.sh, stopped
 #       with SIGINT when it ends);
 #   (b) lock-step speed: the same trot, lock-step (sim.json "speed");
-#   (c) with --soak: the 10-minute real-time soak (ctest hil_e2e.realtime_soak_10min, HYQ_SOAK=1).
+#   (c) with --soak: the real-time soak (ctest hil_e2e.realtime_soak_10min, HYQ_SOAK=1), 10 minutes
+#       or --soak-minutes M (on the robot's computer: 60, docs/realtime_host.md), after the host
+#       check (hyq-servod --check-host, DIR/host_check.txt).
 # First, 10 s of cyclictest alone on the idle machine (DIR/cyclictest_idle.txt): what the machine
 # itself does. It prints, per run: active time, final mode, tracking error, deadline misses, held
 # inputs, the plant's late steps, wake-up p50/p99/p99.9/max beside cyclictest's, and the per-cycle
 # two-stage ID time (mean and worst over the run) beside the paper's 1 ms mean / 36 ms worst.
 #
 #   scripts/benchmark_servo.sh [--out DIR] [--duration S] [--runs N] [--no-lockstep] [--soak]
-#                              [--bus-trace]
+#                              [--soak-minutes M] [--bus-trace]
 #       (defaults: DIR benchmark-servo, 60 s, 2 runs; --bus-trace: hil.sh --bus-trace on the
 #       real-time runs, i.e. every bus recorded and the boards' answers timed, at some extra load)
 # Writes DIR/<run>/ (hil.sh output), DIR/cyclictest_<run>.txt and DIR/summary.md.
 set -uo pipefail
 here="$(cd "$(dirname "$0")/.." && pwd)"
-out="$here/benchmark-servo" dur=60 runs=2 lockstep=1 soak=0 trace=()
+out="$here/benchmark-servo" dur=60 runs=2 lockstep=1 soak=0 soak_min=10 trace=()
 while (($#)); do
   case "$1" in
     --out) out="$2"; shift ;;
@@ -29,13 +31,15 @@ while (($#)); do
     --runs) runs="$2"; shift ;;
     --no-lockstep) lockstep=0 ;;
     --soak) soak=1 ;;
+    --soak-minutes) soak=1; soak_min="$2"; shift ;;
     --bus-trace) trace=(--bus-trace) ;;
-    -h|--help) sed -n '2,21p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+    -h|--help) sed -n '2,23p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
     *) echo "benchmark_servo.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
   shift
 done
 [[ "$dur" =~ ^[0-9]+([.][0-9]+)?$ ]] || { echo "benchmark_servo.sh: --duration: expected seconds, found '$dur'" >&2; exit 2; }
+[[ "$soak_min" =~ ^[1-9][0-9]*$ ]] && ((soak_min <= 120)) || { echo "benchmark_servo.sh: --soak-minutes: expected whole minutes 1..120, found '$soak_min'" >&2; exit 2; }
 [[ "$runs" =~ ^[1-9][0-9]*$ ]] || { echo "benchmark_servo.sh: --runs: expected a count >= 1, found '$runs'" >&2; exit 2; }
 command -v cyclictest >/dev/null || { echo "benchmark_servo.sh: cyclictest not found (Debian: rt-tests; scripts/bootstrap.sh installs it)" >&2; exit 1; }
 [[ "$out" = /* ]] || out="$PWD/$out"
@@ -136,6 +140,9 @@ print(f"benchmark_servo.sh: {rt_held} of {rt_runs} real-time runs held ACTIVE fo
 PY
 cat "$out/machine.txt"
 if ((soak)); then
-  echo "benchmark_servo.sh: the 10-minute real-time soak (ctest -R hil_e2e.realtime_soak_10min) ..." >&2
-  (cd "$here" && HYQ_SOAK=1 ctest --preset ci -R 'hil_e2e\.realtime_soak_10min' --output-on-failure) | tee "$out/soak.out"
+  "$here/build/ci/tools/hyq-servod/hyq-servod" --check-host --config "$here/config/hyq_servo_sim.yaml" \
+    --check-host-seconds 10 | tee "$out/host_check.txt"
+  echo "benchmark_servo.sh: the $soak_min-minute real-time soak (ctest -R hil_e2e.realtime_soak_10min) ..." >&2
+  (cd "$here" && HYQ_SOAK=1 HYQ_SOAK_S=$((soak_min * 60)) ctest --preset ci -R 'hil_e2e\.realtime_soak_10min' \
+    --output-on-failure) | tee "$out/soak.out"
 fi

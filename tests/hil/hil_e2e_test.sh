@@ -29,7 +29,7 @@
 #       docs/baselines.md): both stop cleanly without a fall, and the two-stage ID's mean tracking
 #       error is below the PID's.
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR soak
-#       the same for 600 s, only with HYQ_SOAK=1 (otherwise skipped, exit 77).
+#       the same for HYQ_SOAK_S seconds (default 600), only with HYQ_SOAK=1 (otherwise skipped, exit 77).
 #   hil_e2e_test.sh BUILD_DIR OUT_DIR vcan
 #       lock-step over SocketCAN (vcan0..3, CAN FD) inside ../shared/tools/run-in-vcan-vm when
 #       this kernel has no vcan: bring-up, 0.3 s of standing with the two-stage ID, clean stop.
@@ -61,10 +61,11 @@ shift 3
 here="$(cd "$(dirname "$0")/../.." && pwd)"
 py=/usr/bin/python3
 fail() { echo "hil_e2e_test: FAIL: $*" >&2; exit 1; }
-if [[ "$mode" == soak ]]; then  # the 10-minute real-time soak: a benchmark, not for every run
+if [[ "$mode" == soak ]]; then  # the real-time soak (10 minutes, HYQ_SOAK_S): a benchmark, not for every run
   [[ "${HYQ_SOAK:-0}" == 1 ]] || { echo "SKIP: the 10-minute real-time soak runs only with HYQ_SOAK=1 (scripts/benchmark_servo.sh --soak)"; exit 77; }
+  [[ "${HYQ_SOAK_S:-600}" =~ ^[1-9][0-9]*$ ]] || fail "HYQ_SOAK_S: expected whole seconds >= 1, found '${HYQ_SOAK_S}'"
   mode=realtime
-  set -- 600
+  set -- "${HYQ_SOAK_S:-600}"
 fi
 rm -rf "$out"
 mkdir -p "$out"
