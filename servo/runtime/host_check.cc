@@ -206,12 +206,26 @@ HostItem IdleStates(const std::string& root, int cpu) {
   return it;
 }
 
+// A resource limit of this process and the capability that overrides it, as one line.
+struct LimitState {
+  rlim_t cur = 0;
+  bool cap = false;
+  std::string text;
+};
+LimitState ReadLimit(int resource, const char* name, const char* unit, int cap_bit, const char* cap) {
+  rlimit r{};
+  getrlimit(resource, &r);
+  LimitState l;
+  l.cur = r.rlim_cur;
+  l.cap = (EffectiveCaps() >> cap_bit) & 1u;
+  l.text = std::string(name) + " " + Limit(l.cur, unit) + (l.cap ? ", " : ", no ") + cap;
+  return l;
+}
+
 HostItem Memlock(bool lock_memory) {
   HostItem it = Named("memlock limit");
-  rlimit r{};
-  getrlimit(RLIMIT_MEMLOCK, &r);
-  const bool cap = (EffectiveCaps() >> kCapIpcLock) & 1u;
-  it.found = "RLIMIT_MEMLOCK " + Limit(r.rlim_cur, " B") + (cap ? ", CAP_IPC_LOCK" : ", no CAP_IPC_LOCK");
+  const LimitState l = ReadLimit(RLIMIT_MEMLOCK, "RLIMIT_MEMLOCK", " B", kCapIpcLock, "CAP_IPC_LOCK");
+  it.found = l.text;
   if (!lock_memory) {
     it.verdict = HostVerdict::kWarn;
     it.found += "; realtime.lock_memory is false";
@@ -219,7 +233,7 @@ HostItem Memlock(bool lock_memory) {
     it.fix = "realtime.lock_memory: true";
     return it;
   }
-  if (r.rlim_cur == RLIM_INFINITY || cap) return it;
+  if (l.cur == RLIM_INFINITY || l.cap) return it;
   it.verdict = HostVerdict::kWarn;
   it.expected = "unlimited or CAP_IPC_LOCK: mlockall locks every mapping of the daemon";
   it.fix = "LimitMEMLOCK=infinity in the unit (as shipped), or 'hyq - memlock unlimited' in "
@@ -229,11 +243,9 @@ HostItem Memlock(bool lock_memory) {
 
 HostItem RtPrio(int priority) {
   HostItem it = Named("rtprio limit");
-  rlimit r{};
-  getrlimit(RLIMIT_RTPRIO, &r);
-  const bool cap = (EffectiveCaps() >> kCapSysNice) & 1u;
-  it.found = "RLIMIT_RTPRIO " + Limit(r.rlim_cur, "") + (cap ? ", CAP_SYS_NICE" : ", no CAP_SYS_NICE");
-  if (cap || r.rlim_cur == RLIM_INFINITY || r.rlim_cur >= static_cast<rlim_t>(priority)) return it;
+  const LimitState l = ReadLimit(RLIMIT_RTPRIO, "RLIMIT_RTPRIO", "", kCapSysNice, "CAP_SYS_NICE");
+  it.found = l.text;
+  if (l.cap || l.cur == RLIM_INFINITY || l.cur >= static_cast<rlim_t>(priority)) return it;
   it.verdict = HostVerdict::kFail;
   it.expected = "SCHED_FIFO " + std::to_string(priority) + " allowed (RLIMIT_RTPRIO >= " +
                 std::to_string(priority) + " or CAP_SYS_NICE)";
