@@ -541,9 +541,15 @@ for t in 7 8 9 10 11 12 13 14; do
 done
 wait_sim 14.5 || { echo "recover: the simulation did not reach 14.5 s" >&2; kill -TERM \$servod \$sim; exit 1; }
 # the channel takes commands at most commands.max_rate_hz (20 Hz) apart in wall time, and half a
-# second of a resting robot's lock-step can take less than 50 ms: the enable waits out the limit
-sleep 0.2
-"$cmd" --key "$out/robot.key" --sender op@hil enable
+# second of a resting robot's lock-step can take less than 50 ms: the enable waits out the limit.
+# In lock-step the loopback's UDP receive buffers overflow now and then (thousands of
+# RcvbufErrors a run: the buses' frames and the telemetry at many times real time), and a
+# command datagram can be lost with them: the enable is sent three times, 0.3 s apart (one taken
+# in STANDBY, the others refused in ACTIVE)
+for k in 1 2 3; do
+  sleep 0.3
+  "$cmd" --key "$out/robot.key" --sender op@hil enable
+done
 # the second ACTIVE ends with the run's duration; a daemon left in FAULT would never end
 for i in \$(seq 1200); do kill -0 \$servod 2>/dev/null || break; sleep 0.1; done
 kill -0 \$servod 2>/dev/null && { echo "recover: the daemon did not finish (left in FAULT?)" >&2; kill -TERM \$servod; }
