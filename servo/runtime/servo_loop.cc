@@ -222,6 +222,16 @@ void ServoLoop::Fail(const Fault& f) noexcept {
   safety_.Report(f, stop);
   if (safety_.fault_stop() != StopClass::kNone)
     Relay(sequencer_.RequestSitDown(SitDownCause::kFault, MotionNow()));
+  ReleaseLostJoints();
+}
+
+// during the stop, a lost joint's board goes out of OP, its outputs off: a hydraulic board's valve
+// closes and locks the joint where it is (one still in OP would follow 0 N·m and let it go limp);
+// called where the lost set grows; the acknowledgement in FAULT asks every board back to OP
+void ServoLoop::ReleaseLostJoints() noexcept {
+  if (safety_.mode() != ServoMode::kActive && safety_.mode() != ServoMode::kDamping) return;
+  for (int j = 0; j < kNumJoints; ++j)
+    if (lost_.joint[static_cast<std::size_t>(j)]) hal_.ReleaseJoint(j);
 }
 
 void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
@@ -230,18 +240,14 @@ void ServoLoop::CheckInputs(hal::HalStatus read_status) noexcept {
   // during a fault's sit-down the first fault found each cycle may hide a device lost later:
   // its board is switched off too (below) and the sit-down goes on, or it is cut when the two
   // together are more than one device
-  if (safety_.fault_stop() != StopClass::kNone && ScanLost(hal_, &lost_) &&
-      StopClassOf(lost_) == StopClass::kCut)
-    safety_.Report(MakeFault(EventReason::kInputMissing, -1, -1,
-                             "more inputs lost during the sit-down (%d legs%s): cut",
-                             lost_.legs(), lost_.imu ? " and the IMU" : ""),
-                   StopClass::kCut);
-  // during the stop, a lost joint's board goes out of OP, its outputs off: a hydraulic board's
-  // valve closes and locks the joint where it is (one still in OP would follow 0 N·m and let it
-  // go limp); the acknowledgement in FAULT asks every board back to OP
-  if (safety_.mode() == ServoMode::kActive || safety_.mode() == ServoMode::kDamping)
-    for (int j = 0; j < kNumJoints; ++j)
-      if (lost_.joint[static_cast<std::size_t>(j)]) hal_.ReleaseJoint(j);
+  if (safety_.fault_stop() != StopClass::kNone && ScanLost(hal_, &lost_)) {
+    if (StopClassOf(lost_) == StopClass::kCut)
+      safety_.Report(MakeFault(EventReason::kInputMissing, -1, -1,
+                               "more inputs lost during the sit-down (%d legs%s): cut",
+                               lost_.legs(), lost_.imu ? " and the IMU" : ""),
+                     StopClass::kCut);
+    ReleaseLostJoints();
+  }
   // the device scan only matters while an acknowledgement waits for the devices
   if (safety_.acknowledge_pending())
     safety_.Update({.inputs_ok = !input_fault, .devices_in_op = hal_.AllIn(hal::DeviceState::kOp)});

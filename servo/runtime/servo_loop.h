@@ -145,6 +145,8 @@ class ServoLoop {
   void TakeCommands(std::int64_t now_ns) noexcept;
   void CheckInputs(hal::HalStatus read_status) noexcept;
   void Fail(const Fault& f) noexcept;
+  // the lost joints' boards out of OP during a stop (their valves closed); where lost_ grows
+  void ReleaseLostJoints() noexcept;
   void SampleReference() noexcept;
   void RunController() noexcept;
   void ApplyDecision(const SafetyDecision& d, std::int64_t now_ns) noexcept;
