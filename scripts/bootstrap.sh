@@ -25,6 +25,9 @@ readonly PACKAGES=(
   qemu-system-x86 busybox-static kmod
   # msgpack for python-can's udp_multicast interface, libFuzzer via clang
   python3-msgpack
+  # the Debian package (docs/packaging.md): manual pages from --help, dpkg-shlibdeps' file,
+  # lintian, and a fresh Debian 12 root booted with systemd for tests/packaging/deb_package_test.sh
+  help2man file lintian debootstrap systemd-container
   # hyq-viewer: Boost.Beast (header-only), node to bundle its page, chromium for its browser tests
   # (npm itself: Debian's npm, or the one in a nodesource nodejs)
   libboost-dev nodejs chromium

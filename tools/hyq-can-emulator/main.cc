@@ -27,13 +27,14 @@
 #include "hal/hal.h"
 #include "hal/loopback_bus.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 
 namespace {
 
 using hyq::MonotonicNs;
 
 struct Options {
-  std::string config = HYQ_DEFAULT_HAL_CONFIG;
+  std::string config = hyq::cli::DefaultHalConfig();
   std::map<std::string, std::string> interfaces;  // bus name → channel spec
   double seconds = 0.0;  // 0: until SIGINT / SIGTERM (devices mode); loopback default 2 s
   bool loopback = false;
@@ -46,7 +47,7 @@ constexpr const char* kHelp =
     "                        [--drop-probability P] [--silent-joint NAME] [--loopback]\n"
     "HyQ's 12 actuator boards and IMU, answering NMT, SYNC and RPDOs on the configured\n"
     "CAN buses until SIGINT/SIGTERM, then printing their counters.\n"
-    "  --config FILE         HAL configuration (default " HYQ_DEFAULT_HAL_CONFIG ")\n"
+    "  --config FILE         HAL configuration (default @config@/hyq_hal.yaml)\n"
     "  --interface BUS=SPEC  open bus BUS on SPEC (socketcan:vcan0, udp::43113, ...;\n"
     "                        docs/drivers.md) instead of its configured interface\n"
     "  --seconds S           stop after S seconds (default: run until a signal;\n"
@@ -57,7 +58,7 @@ constexpr const char* kHelp =
 
 Options Parse(int argc, char** argv) {
   Options o;
-  hyq::cli::CommandLine cl(argc, argv, "hyq-can-emulator", kHelp);
+  hyq::cli::CommandLine cl(argc, argv, "hyq-can-emulator", hyq::cli::WithPaths(std::string(kHelp)));
   while (cl.Next()) {
     if (cl.Flag("--loopback")) {
       o.loopback = true;

@@ -16,6 +16,7 @@
 #include "dynamics/cycle_dynamics.h"
 #include "dynamics/urdf_loader.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 
 namespace {
 
@@ -28,16 +29,16 @@ constexpr std::string_view kUsage =
     "mass matrix, bias forces, factorisation, inverse blocks) at the standing posture and along\n"
     "a swaying motion, then prints the model facts and the per-cycle timing.\n"
     "\n"
-    "  --urdf FILE   model file (default: " HYQ_DEFAULT_URDF ")\n"
+    "  --urdf FILE   model file (default: @config@/robots/hyq.urdf)\n"
     "  --cycles N    cycles of the swaying motion to time (default 20000, 1 kHz = 20 s of motion)\n"
     "  --help        this text\n";
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string urdf = HYQ_DEFAULT_URDF;
+  std::string urdf = hyq::cli::DefaultUrdf();
   long cycles = 20000;
-  hyq::cli::CommandLine cl(argc, argv, "hyq-dynamics-demo", std::string(kUsage));
+  hyq::cli::CommandLine cl(argc, argv, "hyq-dynamics-demo", hyq::cli::WithPaths(std::string(kUsage)));
   while (cl.Next()) {
     if (cl.Flag("--urdf")) {
       urdf = cl.Value();

@@ -21,6 +21,7 @@
 #include "dynamics/urdf_loader.h"
 #include "servo/control/id_record.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 #include "tools/experiment/experiment.h"
 #include "tools/plant_flags/plant_profile_flags.h"
 
@@ -321,7 +322,7 @@ Options Parse(cli::CommandLine& cl, const std::vector<Scenario>& scenarios) {
   o.profile = plant.Profile();
   // the feedback gains every scenario's controller runs with
   if (o.gains_source != "untuned") {
-    const std::string path = o.gains_source == "tuned" ? HYQ_DEFAULT_SERVO_CONFIG : o.gains_source;
+    const std::string path = o.gains_source == "tuned" ? hyq::cli::DefaultSimServoConfig() : o.gains_source;
     try {
       o.gains = config::LoadServoConfig(path).controller;
     } catch (const std::exception& e) {
@@ -335,8 +336,8 @@ int Run(const Options& o) {
   const std::vector<const Scenario*>& run = o.run;
   const std::string& out_dir = o.out_dir;
   const std::optional<servo::ControllerConfig>& gains = o.gains;
-  const dynamics::Model model = dynamics::LoadModelFromUrdf(HYQ_DEFAULT_URDF);
-  const hal::HalConfig hal_config = config::LoadHalConfig(HYQ_DEFAULT_HAL_CONFIG);
+  const dynamics::Model model = dynamics::LoadModelFromUrdf(hyq::cli::DefaultUrdf());
+  const hal::HalConfig hal_config = config::LoadHalConfig(hyq::cli::DefaultHalConfig());
   std::filesystem::create_directories(out_dir);
   nlohmann::json results = nlohmann::json::object();
   const auto t_all = std::chrono::steady_clock::now();
@@ -416,7 +417,7 @@ int Run(const Options& o) {
   }
   WriteTables(results, out_dir);
   // the figures (Debian matplotlib); a missing Python only costs the PNGs
-  const std::string plot = std::string("/usr/bin/python3 ") + HYQ_PLOT_SCRIPT + " '" + out_dir + "'";
+  const std::string plot = "/usr/bin/python3 " + hyq::cli::DataFile(HYQ_PLOT_SCRIPT, "plot_experiment.py") + " '" + out_dir + "'";
   if (std::system(plot.c_str()) != 0)
     std::fprintf(stderr, "hyq-experiment: the figures were not made (%s failed)\n", plot.c_str());
   std::fprintf(stderr, "done in %.1f s: %s/results.json\n",
@@ -429,7 +430,7 @@ int Run(const Options& o) {
 
 int main(int argc, char** argv) {
   const std::vector<Scenario> scenarios = Scenarios();
-  cli::CommandLine cl(argc, argv, "hyq-experiment", std::string(kUsage));
+  cli::CommandLine cl(argc, argv, "hyq-experiment", hyq::cli::WithPaths(std::string(kUsage)));
   const Options o = Parse(cl, scenarios);
   if (o.list) {
     for (const auto& s : scenarios) std::printf("%s\n", s.name.c_str());

@@ -13,6 +13,7 @@
 #include "dynamics/urdf_loader.h"
 #include "servo/control/id_record.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 
 namespace {
 
@@ -29,7 +30,7 @@ constexpr std::string_view kUsage =
     "and skipped (so is a line over 1 MiB); the others are still solved. Consecutive lines warm-start the QPs, as in the\n"
     "servo loop. OUT.jsonl may be - for standard output.\n"
     "\n"
-    "  --urdf FILE    the robot model (default: " HYQ_DEFAULT_URDF ")\n"
+    "  --urdf FILE    the robot model (default: @config@/robots/hyq.urdf)\n"
     "  --tangents R   friction directions per contact, 1..8 (default 4)\n"
     "  --help         this text\n"
     "\n"
@@ -78,9 +79,9 @@ bool ReadLine(std::istream& in, std::size_t max, std::string* line, bool* too_lo
 }  // namespace
 
 int main(int argc, char** argv) {
-  std::string urdf = HYQ_DEFAULT_URDF, in_path, out_path;
+  std::string urdf = hyq::cli::DefaultUrdf(), in_path, out_path;
   int tangents = 4;
-  hyq::cli::CommandLine cl(argc, argv, "hyq-id", std::string(kUsage));
+  hyq::cli::CommandLine cl(argc, argv, "hyq-id", hyq::cli::WithPaths(std::string(kUsage)));
   while (cl.Next()) {
     if (cl.Flag("--urdf")) {
       urdf = cl.Value();

@@ -14,6 +14,7 @@
 #include "dynamics/kinematics.h"
 #include "dynamics/urdf_loader.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 
 namespace {
 
@@ -36,7 +37,7 @@ constexpr std::string_view kUsage =
     "                               row (the frame is fixed to the lower leg)\n"
     "for the legs lf, rf, lh, rh. Without base columns the positions are in the trunk's frame.\n"
     "\n"
-    "  --urdf FILE     the robot model (default: " HYQ_DEFAULT_URDF ")\n"
+    "  --urdf FILE     the robot model (default: @config@/robots/hyq.urdf)\n"
     "  --orientation   also the feet's rotations\n"
     "  --help          this text\n"
     "\n"
@@ -64,7 +65,7 @@ int ColumnOf(const std::vector<std::string>& header, const std::string& name) {
 }
 
 struct Options {
-  std::string urdf = HYQ_DEFAULT_URDF;
+  std::string urdf = hyq::cli::DefaultUrdf();
   std::string input = "-";
   bool orientation = false;
 };
@@ -72,7 +73,7 @@ struct Options {
 Options ParseOptions(int argc, char** argv) {
   Options o;
   bool have_input = false;
-  hyq::cli::CommandLine cl(argc, argv, "hyq-kinematics", std::string(kUsage));
+  hyq::cli::CommandLine cl(argc, argv, "hyq-kinematics", hyq::cli::WithPaths(std::string(kUsage)));
   while (cl.Next()) {
     if (cl.Flag("--orientation")) o.orientation = true;
     else if (cl.Flag("--urdf")) o.urdf = cl.Value();

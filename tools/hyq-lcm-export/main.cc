@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 #include "tools/hyq-lcm-export/csv_rows.h"
 #include "tools/hyq-lcm-export/lcm_log.h"
 
@@ -247,13 +248,10 @@ int main(int argc, char** argv) {
     status = 3;
   }
   if (plot) {
-    // the script beside this executable (build tree), else the installed one
-    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    fs::path script = exe.parent_path() / "plot_lcm_log.py";
-    if (!fs::exists(script)) script = exe.parent_path().parent_path() / "share/hyq/plot_lcm_log.py";
+    // the source tree's script (build tree), else the installed one
+    const fs::path script = hyq::cli::DataFile(HYQ_PLOT_SCRIPT, "plot_lcm_log.py");
     if (!fs::exists(script)) {
-      std::fprintf(stderr, "hyq-lcm-export: plot script plot_lcm_log.py not found near %s\n",
-                   exe.c_str());
+      std::fprintf(stderr, "hyq-lcm-export: plot script %s not found\n", script.c_str());
       return status != 0 ? status : 1;
     }
     // absolute, so that an OUT_DIR such as "-h" is not taken for an option

@@ -16,6 +16,7 @@
 #include "config/servo_config_loader.h"
 #include "dynamics/urdf_loader.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 #include "tools/loop_model/gain_search.h"
 #include "tools/loop_model/loop_model.h"
 
@@ -41,7 +42,7 @@ constexpr std::string_view kUsage =
     "the model; docs/baselines.md has the measured delay sweep beside it.\n"
     "\n"
     "  --config FILE        the servo configuration whose controller gains are modelled\n"
-    "                       (default: " HYQ_DEFAULT_SERVO_CONFIG ")\n"
+    "                       (default: @config@/hyq_servo_sim.yaml)\n"
     "  --controller KIND    two_stage, pid or pd_gravity (also noslip, stage1: the IDs' gains);\n"
     "                       default: the configuration's controller.kind\n"
     "  --kp V[,V,V]         the stance kp, N m/rad: one value for all joints or haa,hfe,kfe\n"
@@ -67,7 +68,7 @@ constexpr std::string_view kUsage =
     "exit status: 0 done, 1 a configuration or model error, 2 usage error\n";
 
 struct Options {
-  std::string config = HYQ_DEFAULT_SERVO_CONFIG;
+  std::string config = hyq::cli::DefaultSimServoConfig();
   std::optional<servo::ControllerKind> controller;
   std::vector<double> kp, kd;
   std::optional<double> swing_scale;
@@ -99,7 +100,7 @@ std::vector<double> GainList(cli::CommandLine& cl, double max, std::string_view 
 
 Options Parse(int argc, char** argv) {
   Options o;
-  cli::CommandLine cl(argc, argv, "hyq-loop-model", std::string(kUsage));
+  cli::CommandLine cl(argc, argv, "hyq-loop-model", hyq::cli::WithPaths(std::string(kUsage)));
   while (cl.Next()) {
     if (cl.Flag("--config")) {
       o.config = cl.Value();
@@ -371,7 +372,7 @@ int Run(const Options& o) {
     if (!out) throw std::runtime_error("cannot write " + path);
     out.close();
     if (!o.plot.empty()) {
-      const std::string cmd = std::string("/usr/bin/python3 ") + HYQ_PLOT_SCRIPT + " '" + path + "' '" + o.plot + "'";
+      const std::string cmd = "/usr/bin/python3 " + hyq::cli::DataFile(HYQ_PLOT_SCRIPT, "plot_loop_model.py") + " '" + path + "' '" + o.plot + "'";
       if (std::system(cmd.c_str()) != 0)
         throw std::runtime_error("the plot was not made (" + cmd + " failed)");
       std::printf("\nplot: %s\n", o.plot.c_str());

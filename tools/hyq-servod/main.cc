@@ -35,13 +35,14 @@
 #include "servo/runtime/servo_runner.h"
 #include "servo/telemetry/telemetry.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 
 namespace {
 
 using hyq::servo::ServoMode;
 
 struct Options {
-  std::string config = HYQ_DEFAULT_SERVO_CONFIG;
+  std::string config = hyq::cli::DefaultServoConfig();
   bool check = false, check_host = false;
   double check_host_s = 2.0;
   bool quiet = false;
@@ -61,7 +62,7 @@ constexpr const char* kHelp = R"(usage: hyq-servod [--config FILE] [--check | --
 The HyQ servo daemon: every period it reads the joints and the IMU over CAN (HAL), estimates
 the base state, follows the reference with the configured controller (two-stage contact ID by
 default), checks everything (safety) and writes the joint torques; LCM telemetry on the side.
-  --config FILE          servo configuration (default )" HYQ_DEFAULT_SERVO_CONFIG R"()
+  --config FILE          servo configuration (default @config@/hyq_servo.yaml)
   --check                validate the configuration (and the HAL file and URDF it names), exit
   --check-host           whether this computer can hold the real-time loop as configured: the
                          kernel's preemption, the servo CPU's isolation, interrupts, governor
@@ -284,7 +285,7 @@ int main(int argc, char** argv) {
   sigaddset(&signals, SIGINT);
   sigaddset(&signals, SIGTERM);
   pthread_sigmask(SIG_BLOCK, &signals, nullptr);
-  hyq::cli::CommandLine cl(argc, argv, "hyq-servod", kHelp);
+  hyq::cli::CommandLine cl(argc, argv, "hyq-servod", hyq::cli::WithPaths(std::string(kHelp)));
   const Options opt = Parse(cl);
   hyq::servo::ServoConfig config;
   std::unique_ptr<hyq::dynamics::Model> model;
@@ -434,11 +435,14 @@ int main(int argc, char** argv) {
 
   bool warned = false, overrun_done = false, stopped_in_fault = false;
   std::int64_t next_progress = hyq::MonotonicNs() + 1'000'000'000;
+  // mode changes, the signal and the end are printed with --quiet too: they are the service's
+  // record in the journal (journalctl -u hyq-servod)
+  ServoMode last_mode = loop->published_mode();
   while (!servo_done.load(std::memory_order_acquire)) {
     const timespec wait{0, 50'000'000};
     const int sig = sigtimedwait(&signals, nullptr, &wait);
     if (sig == SIGINT || sig == SIGTERM) {
-      if (!opt.quiet) std::fprintf(stderr, "hyq-servod: %s: controlled stop\n", strsignal(sig));
+      std::fprintf(stderr, "hyq-servod: %s: controlled stop\n", strsignal(sig));
       stop_signalled.store(true);
       loop->RequestStop();
     }
@@ -447,6 +451,11 @@ int main(int argc, char** argv) {
       for (const auto& w : rt.warnings) std::fprintf(stderr, "hyq-servod: warning: %s\n", w.c_str());
     }
     const ServoMode mode = loop->published_mode();
+    if (mode != last_mode) {
+      std::fprintf(stderr, "hyq-servod: %s -> %s, cycle %llu\n", hyq::servo::ToString(last_mode),
+                   hyq::servo::ToString(mode), static_cast<unsigned long long>(loop->published_cycles()));
+      last_mode = mode;
+    }
     if (opt.exit_on_fault && mode == ServoMode::kFault && !stopped_in_fault) {
       stopped_in_fault = true;
       loop->RequestStop();
@@ -502,5 +511,9 @@ int main(int argc, char** argv) {
   }
   if (!opt.summary.empty()) std::ofstream(opt.summary) << summary.dump(2) << "\n";
   if (!opt.quiet) std::fprintf(stderr, "hyq-servod: summary\n%s\n", summary.dump(2).c_str());
+  std::fprintf(stderr, "hyq-servod: ended in %s after %.2f s active, %llu deadline misses, events: %s\n",
+               summary["final_mode"].get<std::string>().c_str(), summary["active_s"].get<double>(),
+               static_cast<unsigned long long>(summary["deadline_misses"].get<std::uint64_t>()),
+               summary["events"].empty() ? "none" : summary["events"].dump().c_str());
   return stopped_in_fault ? 3 : 0;
 }

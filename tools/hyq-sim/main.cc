@@ -35,6 +35,7 @@
 #include "sim/realtime_runner.h"
 #include "sim/simulated_robot.h"
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 #include "tools/plant_flags/plant_profile_flags.h"
 #include "hyq_lcm/lcmt_hyq_sim_truth.hpp"
 
@@ -47,8 +48,8 @@ constexpr const char* kDefaultLcmUrl = "udpm://239.255.76.67:7667?ttl=0";
 constexpr const char* kTruthChannel = "HYQ_SIM_TRUTH";
 
 struct Options {
-  std::string config = HYQ_DEFAULT_HAL_CONFIG;
-  std::string urdf = HYQ_DEFAULT_URDF;
+  std::string config = hyq::cli::DefaultHalConfig();
+  std::string urdf = hyq::cli::DefaultUrdf();
   std::map<std::string, std::string> interfaces;  // bus name → channel spec
   bool lockstep = true;
   hyq::sim::SimulatedRobotConfig robot;
@@ -95,8 +96,8 @@ std::string Help() {
       "               [--quiet]\n"
       "The simulated HyQ: the MuJoCo plant behind HyQ's actuator boards and IMU on CAN, driven\n"
       "by the servo daemon (or any HAL master) through NMT, SYNC and RPDOs. docs/simulation.md.\n"
-      "  --config FILE          HAL configuration (default " HYQ_DEFAULT_HAL_CONFIG ")\n"
-      "  --urdf FILE            robot model (default " HYQ_DEFAULT_URDF ")\n"
+      "  --config FILE          HAL configuration (default @config@/hyq_hal.yaml)\n"
+      "  --urdf FILE            robot model (default @config@/robots/hyq.urdf)\n"
       "  --interface BUS=SPEC   bus BUS on SPEC (docs/drivers.md). Default: the virtual buses\n"
       "                         udp::43101 (lf), udp::43102 (rf), udp::43103 (lh), udp::43104 (rh)\n"
       "  --mode M               lockstep (default): one physics step per SYNC seen on every bus,\n"
@@ -819,7 +820,7 @@ int Run(const hyq::cli::CommandLine& cl, const Options& o) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  hyq::cli::CommandLine cl(argc, argv, kTool, Help());
+  hyq::cli::CommandLine cl(argc, argv, kTool, hyq::cli::WithPaths(Help()));
   const Options o = Parse(cl);
   return hyq::cli::Run(kTool, [&] { return Run(cl, o); });
 }

@@ -32,6 +32,7 @@
 #include <lcm/lcm-cpp.hpp>
 
 #include "tools/cli/command_line.h"
+#include "tools/cli/install_paths.h"
 #include "tools/hyq-viewer/log_player.h"
 #include "tools/hyq-viewer/telemetry_json.h"
 #include "tools/hyq-viewer/web_server.h"
@@ -50,8 +51,8 @@ struct Options {
   std::string log;
   bool paused = false;
   double rate_hz = 30.0;
-  std::string web_dir = HYQ_VIEWER_WEB_DIR;
-  std::string urdf = HYQ_DEFAULT_URDF;
+  std::string web_dir = hyq::cli::DefaultViewerWebDir();
+  std::string urdf = hyq::cli::DefaultUrdf();
   bool quiet = false;
 };
 
@@ -72,15 +73,15 @@ std::string Help() {
     "  --log FILE      play an lcm-logger file instead (pause, resume, seek, speed on the page)\n"
     "  --paused        with --log: start paused at the beginning\n"
     "  --rate-hz HZ    frames per second sent to the page, 1..120 (default 30)\n"
-    "  --web-dir DIR   the bundled page (default " HYQ_VIEWER_WEB_DIR ")\n"
-    "  --urdf FILE     robot model drawn by the page (default " HYQ_DEFAULT_URDF ")\n"
+    "  --web-dir DIR   the bundled page (default <prefix>/share/hyq/viewer, or the build tree's)\n"
+    "  --urdf FILE     robot model drawn by the page (default @config@/robots/hyq.urdf)\n"
     "  --quiet         no status line on stderr\n";
 }
 
 Options Parse(int argc, char** argv) {
   Options o;
   bool lcm_url_given = false;
-  hyq::cli::CommandLine cl(argc, argv, kTool, Help());
+  hyq::cli::CommandLine cl(argc, argv, kTool, hyq::cli::WithPaths(Help()));
   while (cl.Next()) {
     if (cl.Flag("--bind")) {
       o.bind = cl.Value();
