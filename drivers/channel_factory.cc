@@ -138,8 +138,34 @@ ChannelSpec ParseChannelSpec(std::string_view spec) {
     return o;
   }
 
-  Bad(spec, "socketcan:IF, socketcan-fd:IF, socketcan-classic:IF, udp[:GROUP[:PORT]] or "
-            "replay:PATH",
+  if (kind == "shm") {
+    ShmOptions o;
+    if (colon == std::string_view::npos || kind_end != colon) Bad(spec, "shm:GROUP:BUS", spec);
+    const std::string_view where = SplitOptions(spec, body, [&](auto key, auto value) {
+      if (key == "side") {
+        if (value == "master") {
+          o.side = ShmSide::kMaster;
+        } else if (value == "devices") {
+          o.side = ShmSide::kDevices;
+        } else {
+          Bad(spec, "side=master or side=devices", value);
+        }
+      } else if (key == "fd") {
+        o.fd = ParseBool(spec, value, "fd");
+      } else {
+        Bad(spec, "an shm option (side, fd)", key);
+      }
+    });
+    const std::size_t pc = where.find(':');
+    if (pc == std::string_view::npos || pc == 0 || pc + 1 == where.size())
+      Bad(spec, "shm:GROUP:BUS (a group and a bus name)", where);
+    o.group = std::string(where.substr(0, pc));
+    o.bus = std::string(where.substr(pc + 1));
+    return o;
+  }
+
+  Bad(spec, "socketcan:IF, socketcan-fd:IF, socketcan-classic:IF, udp[:GROUP[:PORT]], "
+            "shm:GROUP:BUS or replay:PATH",
       kind);
 }
 
@@ -148,6 +174,7 @@ std::unique_ptr<hal::CanChannel> OpenChannel(const ChannelSpec& spec) {
     return std::make_unique<SocketCanChannel>(*s);
   if (const auto* u = std::get_if<UdpMulticastOptions>(&spec))
     return std::make_unique<UdpMulticastChannel>(*u);
+  if (const auto* m = std::get_if<ShmOptions>(&spec)) return std::make_unique<ShmChannel>(*m);
   const auto& r = std::get<ReplayOptions>(spec);
   CandumpLog log = ReadCandumpFile(r.path, MalformedLines::kThrow);
   return std::make_unique<ReplayChannel>(std::move(log.records), r.iface, r.timing, r.fd,
@@ -171,6 +198,7 @@ std::string ChannelIdentity(const ChannelSpec& spec) {
   if (const auto* s = std::get_if<SocketCanOptions>(&spec)) return "socketcan:" + s->interface;
   if (const auto* u = std::get_if<UdpMulticastOptions>(&spec))
     return "udp:" + u->group + ":" + std::to_string(u->port);
+  if (const auto* m = std::get_if<ShmOptions>(&spec)) return "shm:" + m->group + ":" + m->bus;
   return "replay:" + std::get<ReplayOptions>(spec).path;
 }
 
@@ -191,7 +219,7 @@ void CheckBusInterfaces(const std::vector<std::pair<std::string, std::string>>& 
 }
 
 std::string SpecForInterface(std::string_view interface) {
-  for (std::string_view prefix : {"socketcan", "udp", "replay"})
+  for (std::string_view prefix : {"socketcan", "udp", "shm", "replay"})
     if (interface.substr(0, prefix.size()) == prefix) return std::string(interface);
   return "socketcan:" + std::string(interface);
 }

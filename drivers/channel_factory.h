@@ -1,16 +1,19 @@
 // Opening a channel from the short spec string config files use.
 //
-//   spec      := socketcan-spec | udp-spec | replay-spec
+//   spec      := socketcan-spec | udp-spec | shm-spec | replay-spec
 //   socketcan-spec := ("socketcan" | "socketcan-fd" | "socketcan-classic") ":" IFNAME opts
 //                   socketcan: FD when the interface MTU allows it; -fd: FD required (throws
 //                   otherwise); -classic: never FD
 //   udp-spec  := "udp" [ ":" GROUP [ ":" PORT ] ] opts
 //                   GROUP an IPv4 multicast address (default 239.74.163.2), PORT 1..65535
 //                   (default 43113); "udp" alone, "udp::43114" and "udp:239.1.2.3" are valid
+//   shm-spec  := "shm:" GROUP ":" BUS opts   shared memory, one master and one devices side
+//                   (drivers/shm_channel.h; lock-step hardware-in-the-loop on one machine)
 //   replay-spec := "replay:" PATH opts       (PATH may not contain ',')
 //   opts      := { "," KEY "=" VALUE }
 //     udp:       ttl=0..255 (default 0), iface=A.B.C.D, fd=0|1 (default 1), batch=N, rcvbuf=BYTES
 //     socketcan: batch=N, rcvbuf=BYTES
+//     shm:       side=master|devices (default master), fd=0|1 (default 1)
 //     replay:    iface=NAME (only lines from that interface), timing=fast|realtime, fd=0|1
 //
 // Examples: "socketcan:vcan0", "socketcan-fd:can1,rcvbuf=262144", "udp:239.74.163.2:43113",
@@ -25,6 +28,7 @@
 #include <vector>
 
 #include "drivers/candump.h"
+#include "drivers/shm_channel.h"
 #include "drivers/socketcan_channel.h"
 #include "drivers/udp_multicast_channel.h"
 #include "hal/can_channel.h"
@@ -39,7 +43,7 @@ struct ReplayOptions {
 };
 
 /// A parsed spec: the options of exactly one driver.
-using ChannelSpec = std::variant<SocketCanOptions, UdpMulticastOptions, ReplayOptions>;
+using ChannelSpec = std::variant<SocketCanOptions, UdpMulticastOptions, ShmOptions, ReplayOptions>;
 
 /// Parses `spec`; throws ChannelError("channel spec '<spec>': expected ..., found ...").
 ChannelSpec ParseChannelSpec(std::string_view spec);

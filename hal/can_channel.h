@@ -80,6 +80,15 @@ class CanChannel {
   /// A file descriptor that poll() reports readable when frames wait, or −1 when the channel
   /// has none (in-memory and replay channels): for set-up and non-real-time waiting loops.
   virtual int poll_fd() const noexcept { return -1; }
+  /// Whether frames are known to wait, found without a system call (shared memory); false when
+  /// the channel cannot tell that way (sockets: poll() their fd). Lets a lock-step waiter spin
+  /// briefly instead of sleeping (SpinForFrames).
+  virtual bool frames_pending() const noexcept { return false; }
+  /// Whether frames_pending() can tell (true for shared memory).
+  virtual bool tells_pending() const noexcept { return false; }
+  /// A waiter looks at frames_pending() without sleeping while `on` (SpinForFrames): a writer
+  /// need not wake it. After `on` = false the waiter looks once more before it sleeps.
+  virtual void SetWaiterSpinning(bool /*on*/) noexcept {}
   virtual bool fd_enabled() const noexcept = 0;
   virtual std::string_view name() const noexcept = 0;
 };

@@ -1,6 +1,7 @@
 #include "hal/lockstep_channel.h"
 
 #include <poll.h>
+#include <sched.h>
 
 #include <algorithm>
 #include <array>
@@ -76,6 +77,23 @@ int LockstepChannel::Pump() noexcept {
   return tpdos_;
 }
 
+bool SpinForFrames(std::span<CanChannel* const> channels, std::int64_t budget_ns) noexcept {
+  const auto pending = [&] {
+    for (const CanChannel* c : channels)
+      if (c->tells_pending() && c->frames_pending()) return true;
+    return false;
+  };
+  for (CanChannel* c : channels) c->SetWaiterSpinning(true);
+  const std::int64_t end = MonotonicNs() + budget_ns;
+  bool found = false;
+  do {
+    found = pending();
+    if (!found) sched_yield();
+  } while (!found && MonotonicNs() < end);
+  for (CanChannel* c : channels) c->SetWaiterSpinning(false);
+  return found || pending();  // frames a writer did not ring for while we spun
+}
+
 bool WaitForLockstepInputs(const Hal& hal, std::span<LockstepChannel* const> channels,
                            std::int64_t timeout_ns, std::int64_t idle_ns) noexcept {
   int expected = 0;
@@ -93,6 +111,15 @@ bool WaitForLockstepInputs(const Hal& hal, std::span<LockstepChannel* const> cha
   std::size_t nfds = 0;
   for (LockstepChannel* c : channels)
     if (c->poll_fd() >= 0 && nfds < fds.size()) fds[nfds++] = {c->poll_fd(), POLLIN, 0};
+  std::array<CanChannel*, kMaxBuses> plain_channels{};
+  std::size_t nplain = 0;
+  bool spin = false;
+  for (LockstepChannel* c : channels)
+    if (nplain < plain_channels.size()) {
+      plain_channels[nplain++] = c;
+      spin = spin || c->tells_pending();
+    }
+  const std::span<CanChannel* const> plain(plain_channels.data(), nplain);
   const std::int64_t end =
       MonotonicNs() + (expected == 0 ? std::min(timeout_ns, idle_ns) : timeout_ns);
   for (;;) {
@@ -102,6 +129,7 @@ bool WaitForLockstepInputs(const Hal& hal, std::span<LockstepChannel* const> cha
     if (expected > 0 && got >= expected) return true;
     const std::int64_t left = end - MonotonicNs();
     if (left <= 0) return expected == 0;
+    if (spin && SpinForFrames(plain, std::min(left, kLockstepSpinNs))) continue;
     const timespec ts{static_cast<time_t>(left / 1'000'000'000), static_cast<long>(left % 1'000'000'000)};
     (void)ppoll(fds.data(), nfds, &ts, nullptr);
   }

@@ -28,6 +28,9 @@ class LockstepChannel : public CanChannel {
   bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
   std::string_view name() const noexcept override { return inner_->name(); }
   int poll_fd() const noexcept override { return inner_->poll_fd(); }
+  bool frames_pending() const noexcept override { return inner_->frames_pending(); }
+  bool tells_pending() const noexcept override { return inner_->tells_pending(); }
+  void SetWaiterSpinning(bool on) noexcept override { inner_->SetWaiterSpinning(on); }
   CanChannel& inner() noexcept { return *inner_; }
 
   /// Moves pending frames into the buffer; returns the TPDOs buffered and not yet received that
@@ -56,6 +59,17 @@ class LockstepChannel : public CanChannel {
 };
 
 class Hal;
+
+/// How long a lock-step waiter looks for frames on channels that can tell without a system call
+/// (CanChannel::frames_pending, shared memory) before it sleeps in poll(): the other side's work
+/// per hand-off is 20-50 µs, a sleep and a wake-up cost about as much again.
+inline constexpr std::int64_t kLockstepSpinNs = 150'000;
+
+/// Looks at `channels` (frames_pending) until one has frames or `budget_ns` has passed,
+/// yielding the CPU between looks (on a machine with a core for each side the yield returns at
+/// once; on a busy one the other side runs). Returns whether frames wait. Call it only when a
+/// channel tells_pending(): others are not looked at.
+bool SpinForFrames(std::span<CanChannel* const> channels, std::int64_t budget_ns) noexcept;
 
 /// After a SYNC (ppoll on the channels' descriptors; lock-step, and the real-time cycle's answer
 /// wait): waits until every device of `hal`

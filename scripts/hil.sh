@@ -7,7 +7,12 @@
 #                  [--controller two_stage|stage1|noslip|pid|pd_gravity] [--mu MU] [--clock lockstep|realtime]
 #                  [--fault T:KIND:TARGET[:ARG]]... [--sim-arg ARG]... [--servod-arg ARG]...
 #                  [--build DIR] [--config FILE] [--no-logger] [--candump] [--bus-trace] [--sigterm-after S] [--quiet]
+#                  [--transport shm|udp]
 #
+# --transport: the virtual CAN buses between hyq-sim and the daemon. shm (the default): shared
+#   memory, a doorbell per hand-off instead of a datagram per frame (drivers/shm_channel.h); udp:
+#   python-can's udp_multicast on loopback, which --candump, --bus-trace and python-can tools
+#   need (they choose it).
 # --config FILE: the daemon's configuration (default config/hyq_servo_sim.yaml), e.g. a copy with
 #   other estimator or gain settings.
 # --bus-trace: hyq-candump records each bus (OUT/bus_<name>.log, candump format, kernel receive
@@ -24,8 +29,9 @@ here="$(cd "$(dirname "$0")/.." && pwd)"
 
 out=hil-run duration=5 reference=trot controller=two_stage mu=0.1 clock=lockstep
 build="$here/build/ci" config="$here/config/hyq_servo_sim.yaml" logger=1 candump=0 bus_trace=0 quiet=0 sigterm_after= servod_bin=
+transport=shm
 faults=() sim_args=() servod_args=()
-usage() { sed -n '2,19p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
+usage() { sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
 while (($#)); do
   case "$1" in
     --out) out="$2"; shift ;;
@@ -47,12 +53,19 @@ while (($#)); do
     --candump) candump=1 ;;
     --bus-trace) bus_trace=1 ;;
     --quiet) quiet=1 ;;
+    --transport) transport="$2"; shift ;;
     -h|--help) usage 0 ;;
     *) echo "hil.sh: unknown option '$1' (see --help)" >&2; exit 2 ;;
   esac
   shift
 done
 [[ "$out" = /* ]] || out="$PWD/$out"
+case "$transport" in
+  shm|udp) ;;
+  *) echo "hil.sh: --transport: expected shm or udp, found '$transport'" >&2; exit 2 ;;
+esac
+# the recorders listen on the UDP buses
+((candump || bus_trace)) && transport=udp
 
 # a private network namespace (root: unshare -n; otherwise a user namespace too)
 if [[ -z "${HYQ_HIL_NETNS:-}" ]]; then
@@ -60,7 +73,7 @@ if [[ -z "${HYQ_HIL_NETNS:-}" ]]; then
   ((EUID == 0)) || ns=(unshare -rn)
   exec "${ns[@]}" env HYQ_HIL_NETNS=1 "$0" --out "$out" --duration "$duration" \
     --reference "$reference" --controller "$controller" --mu "$mu" --clock "$clock" \
-    --build "$build" --config "$config" "${faults[@]}" $( ((logger)) || echo --no-logger) \
+    --build "$build" --config "$config" --transport "$transport" "${faults[@]}" $( ((logger)) || echo --no-logger) \
     ${sigterm_after:+--sigterm-after "$sigterm_after"} ${servod_bin:+--servod-bin "$servod_bin"} \
     $( ((candump)) && echo --candump) $( ((bus_trace)) && echo --bus-trace) $( ((quiet)) && echo --quiet) \
     "${sim_args[@]/#/--sim-arg=}" "${servod_args[@]/#/--servod-arg=}"
@@ -116,15 +129,26 @@ if ((bus_trace)); then
   done
   ((n == 4)) || echo "hil.sh: --bus-trace: a recorder has not started after 5 s (see $out/bus_*.err)" >&2
 fi
+# the buses: hyq-sim's default UDP ones (the configuration's), or a shared-memory group of this
+# run's own (the devices' side is hyq-sim's; it removes the segment when it ends)
+sim_bus=() servod_bus=()
+if [[ "$transport" == shm ]]; then
+  shm_group="hil-$$-$RANDOM"
+  for b in lf rf lh rh; do
+    sim_bus+=(--interface "$b=shm:$shm_group:$b,side=devices")
+    servod_bus+=(--interface "$b=shm:$shm_group:$b")
+  done
+  trap 'cleanup; rm -f /dev/shm/hyq-can."$shm_group"*' EXIT
+fi
 "$sim" --mode "$clock" --mu "$mu" --summary "$out/sim.json" --truth "$out/truth.csv" --quiet \
-  "${faults[@]}" "${sim_args[@]}" 2>"$out/sim.log" &
+  "${sim_bus[@]}" "${faults[@]}" "${sim_args[@]}" 2>"$out/sim.log" &
 sim_pid=$!
 sleep 0.2
 ((quiet)) && q=(--quiet) || q=()
 set +e
 "$servod" --config "$config" --clock "$clock" --auto-enable --reference "$reference" --controller "$controller" \
   --mu "$mu" --duration "$duration" --exit-on-fault --summary "$out/servod.json" \
-  --lcm-url "$url" "${q[@]}" "${servod_args[@]}" 2>"$out/servod.log" &
+  --lcm-url "$url" "${servod_bus[@]}" "${q[@]}" "${servod_args[@]}" 2>"$out/servod.log" &
 servod_pid=$!
 if [[ -n "$sigterm_after" ]]; then  # the operator's Ctrl-C / systemctl stop
   sleep "$sigterm_after"
@@ -138,6 +162,7 @@ wait "$sim_pid" 2>/dev/null || true
 sleep 0.2
 cleanup
 trap - EXIT
+[[ -n "${shm_group:-}" ]] && rm -f /dev/shm/hyq-can."$shm_group"*
 if ((bus_trace)); then
   /usr/bin/python3 "$here/scripts/bus_trace_report.py" "$out" >"$out/bus_trace.txt" 2>&1 ||
     echo "hil.sh: bus_trace_report.py failed: see $out/bus_trace.txt" >&2

@@ -8,7 +8,9 @@
 #include <Eigen/Geometry>
 
 #include "dynamics/leg_kinematics.h"
+#include "hal/clock.h"
 #include "hal/config_error.h"
+#include "hal/lockstep_channel.h"
 #include "hal/protocol.h"
 #include "sim/board_bus.h"
 
@@ -95,6 +97,8 @@ class SimulatedRobot::SyncCounter final : public hal::CanChannel {
   bool fd_enabled() const noexcept override { return inner_->fd_enabled(); }
   std::string_view name() const noexcept override { return inner_->name(); }
   int poll_fd() const noexcept override { return inner_->poll_fd(); }
+  bool frames_pending() const noexcept override { return inner_->frames_pending(); }
+  bool tells_pending() const noexcept override { return inner_->tells_pending(); }
   std::uint64_t syncs() const noexcept { return syncs_; }
 
  private:
@@ -292,7 +296,11 @@ void SimulatedRobot::Step() noexcept {
     }
   }
   UpdateSensors();
-  if (observer_) observer_(*this);
+  if (observer_) {
+    const std::int64_t t0 = MonotonicNs();
+    observer_(*this);
+    lockstep_time_.observer_ns += MonotonicNs() - t0;
+  }
 }
 
 void SimulatedRobot::UpdateSensors() noexcept {
@@ -420,9 +428,12 @@ int SimulatedRobot::RunDueStall() noexcept {
 
 int SimulatedRobot::PollLockStep() noexcept {
   int steps = RunDueStall();
+  const std::int64_t t0 = MonotonicNs();
   polling_lockstep_ = true;
   Poll(time_ns());
   polling_lockstep_ = false;
+  const std::int64_t t1 = MonotonicNs();
+  lockstep_time_.bus_ns += t1 - t0;
   for (;;) {
     std::uint64_t lo = 0;
     if (SyncedSteps() >= StepTarget(&lo)) break;
@@ -430,6 +441,7 @@ int SimulatedRobot::PollLockStep() noexcept {
     Step();
     ++steps;
   }
+  if (steps > 0) lockstep_time_.step_ns += MonotonicNs() - t1;  // the observer's share included
   return steps;
 }
 
@@ -441,7 +453,16 @@ int SimulatedRobot::WaitAndPollLockStep(int timeout_ms) noexcept {
   for (const auto& c : channels_)
     if (c->poll_fd() >= 0) fds[n++] = {c->poll_fd(), POLLIN, 0};
   if (n == 0) return 0;
-  (void)poll(fds.data(), n, timeout_ms);
+  const std::int64_t t0 = MonotonicNs();
+  std::array<hal::CanChannel*, hal::kMaxBuses> spinnable{};
+  std::size_t ns = 0;
+  for (const auto& c : channels_)
+    if (c->tells_pending()) spinnable[ns++] = c.get();
+  // shared memory: look a while before sleeping (hal::SpinForFrames)
+  if (ns == 0 || !hal::SpinForFrames(std::span(spinnable.data(), ns), hal::kLockstepSpinNs))
+    (void)poll(fds.data(), n, timeout_ms);
+  lockstep_time_.wait_ns += MonotonicNs() - t0;
+  ++lockstep_time_.waits;
   return PollLockStep();
 }
 
@@ -450,8 +471,19 @@ std::uint64_t SimulatedRobot::RunLockStep(const std::atomic<bool>& stop, double 
                              ? static_cast<std::uint64_t>(std::llround(duration_s * 1e9 / static_cast<double>(period_ns_)))
                              : UINT64_MAX;
   const std::uint64_t start = counters_.steps;
-  while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps)
+  std::int64_t t0 = MonotonicNs();
+  std::uint64_t steps0 = start;
+  while (!stop.load(std::memory_order_relaxed) && counters_.steps < end_steps) {
+    const bool before_first = counters_.steps == start;
     (void)WaitAndPollLockStep(50);
+    if (before_first && counters_.steps != start) {  // the split counts from here
+      lockstep_time_ = LockstepTime{};
+      t0 = MonotonicNs();
+      steps0 = counters_.steps;
+    }
+  }
+  lockstep_time_.loop_ns += MonotonicNs() - t0;
+  lockstep_time_.steps += counters_.steps - steps0;
   return counters_.steps - start;
 }
 

@@ -102,6 +102,17 @@ struct SimulatedRobotCounters {
   std::array<std::uint64_t, hal::kMaxBuses> syncs{};  // per bus, seen on the wire
 };
 
+/// Where lock-step's wall time goes (WaitAndPollLockStep, PollLockStep): waiting in poll() for
+/// the master (its cycle and the transport's hand-off), the bus work (draining the channels, the
+/// boards' answers), the physics step (actuators, plant, sensors) and the step observer (truth
+/// recording, progress); from the first step on (not the wait for the master to start).
+struct LockstepTime {
+  std::uint64_t steps = 0;
+  std::int64_t loop_ns = 0;  // RunLockStep's, from the first step
+  std::int64_t wait_ns = 0, bus_ns = 0, step_ns = 0, observer_ns = 0;
+  std::uint64_t waits = 0;  // poll() calls
+};
+
 /// What a step hands HyQ's boards (their sensor values) and what it takes back (their
 /// set-points); real time, across threads (sim/board_bus.h).
 struct SensorFrame {
@@ -200,6 +211,7 @@ class SimulatedRobot {
   const dynamics::VectorJ& measured_torque_Nm() const noexcept { return tau_measured_; }
   const ImuReading& imu_reported() const noexcept { return imu_reported_; }
   const SimulatedRobotCounters& counters() const noexcept { return counters_; }
+  const LockstepTime& lockstep_time() const noexcept { return lockstep_time_; }
   const std::vector<FaultSpec>& faults() const noexcept { return faults_; }
   Plant& plant() noexcept { return *plant_; }
   const Plant& plant() const noexcept { return *plant_; }
@@ -249,6 +261,7 @@ class SimulatedRobot {
   std::vector<FaultSpec> faults_;
   std::vector<std::uint8_t> fault_state_;  // 0 pending, 1 active, 2 done
   SimulatedRobotCounters counters_;
+  LockstepTime lockstep_time_;
   bool holding_;
   double max_descent_m_s_ = 0.0;
   bool fell_ = false;

@@ -13,8 +13,11 @@
 #include <string>
 #include <vector>
 
+#include <unistd.h>
+
 #include "drivers/candump.h"
 #include "drivers/msgpack_frame.h"
+#include "drivers/shm_channel.h"
 #include "drivers/udp_multicast_channel.h"
 
 namespace hyq::drivers {
@@ -87,14 +90,11 @@ BENCHMARK(BM_UdpSendAndDrainPerFrame)
     ->Args({64, 1})
     ->UseRealTime();
 
-void BM_UdpRoundTrip13(benchmark::State& state) {
-  if (!InNetns()) {
-    state.SkipWithError("run inside tests/drivers/in_netns.sh (a private network namespace)");
-    return;
-  }
+// 13 frames out, drained by the devices' channel, 13 back, drained by the master's: the
+// transport's own cost per lock-step cycle and bus, on one thread (no hand-off between processes)
+void RoundTrip13(benchmark::State& state, hal::CanChannel& master, hal::CanChannel& devices) {
   constexpr std::size_t kBurst = 13;  // SYNC + 12 RPDOs out; 12 TPDOs + IMU back
   const bool fd = state.range(0) != 0;
-  UdpMulticastChannel master(Opts()), devices(Opts());
   std::vector<CanFrame> out_burst, in_burst;
   for (std::uint32_t i = 0; i < kBurst; ++i) {
     out_burst.push_back(Frame(i == 0 ? 0x080 : 0x200 + i, i == 0 ? 0 : (fd ? 16 : 8), fd && i));
@@ -121,7 +121,28 @@ void BM_UdpRoundTrip13(benchmark::State& state) {
   state.counters["p99_us"] = rtt_us[std::min(rtt_us.size() - 1, rtt_us.size() * 99 / 100)];
   state.counters["samples"] = static_cast<double>(rtt_us.size());
 }
+
+void BM_UdpRoundTrip13(benchmark::State& state) {
+  if (!InNetns()) {
+    state.SkipWithError("run inside tests/drivers/in_netns.sh (a private network namespace)");
+    return;
+  }
+  UdpMulticastChannel master(Opts()), devices(Opts());
+  RoundTrip13(state, master, devices);
+}
 BENCHMARK(BM_UdpRoundTrip13)->ArgName("fd")->Arg(0)->Arg(1)->UseRealTime();
+
+void BM_ShmRoundTrip13(benchmark::State& state) {
+  ShmOptions o;
+  o.group = "bench-" + std::to_string(::getpid());
+  o.bus = "lf";
+  o.side = ShmSide::kDevices;
+  ShmChannel devices(o);
+  o.side = ShmSide::kMaster;
+  ShmChannel master(o);
+  RoundTrip13(state, master, devices);
+}
+BENCHMARK(BM_ShmRoundTrip13)->ArgName("fd")->Arg(0)->Arg(1)->UseRealTime();
 
 void BM_DatagramEncodeDecode(benchmark::State& state) {
   const CanFrame f = Frame(0x181, 64, true);

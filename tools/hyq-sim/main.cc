@@ -689,6 +689,25 @@ std::uint64_t BoardResets(const hyq::hal::Emulator& e, const hyq::hal::HalConfig
   return n;
 }
 
+/// Where a lock-step run's wall time went, per step: waiting for the master (its cycle and the
+/// transport's hand-off), the bus work, the physics step, the truth recording, and the rest
+/// (the loop itself, stalls). Empty in real time.
+Json LockstepWall(const hyq::sim::LockstepTime& t, bool lockstep) {
+  if (!lockstep || t.steps == 0) return Json::object();
+  const double n = static_cast<double>(t.steps);
+  const auto us = [n](std::int64_t ns) { return 1e-3 * static_cast<double>(ns) / n; };
+  const double total_us = us(t.loop_ns);
+  const double known = us(t.wait_ns) + us(t.bus_ns) + us(t.step_ns);
+  return {{"per_step_us", total_us},
+          {"waiting_for_master_us", us(t.wait_ns)},
+          {"bus_us", us(t.bus_ns)},
+          {"plant_step_us", us(t.step_ns - t.observer_ns)},
+          {"truth_recording_us", us(t.observer_ns)},
+          {"other_us", std::max(0.0, total_us - known)},
+          {"waits_per_step", static_cast<double>(t.waits) / n},
+          {"steps", t.steps}};
+}
+
 /// --summary: the run's outcome, counters, timing and the boards' state, as JSON (read by
 /// scripts/hil.sh, tests/hil/*.sh and scripts/*.py).
 Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
@@ -732,6 +751,7 @@ Json Summary(const Options& o, const hyq::hal::HalConfig& cfg,
       {"released_at_s", recorder.released_at_s()},
       {"speed_after_release", recorder.SpeedAfterRelease(robot.time_s())},
       {"lockstep_forced_steps", c.lockstep_forced},
+      {"lockstep_wall", LockstepWall(robot.lockstep_time(), o.lockstep)},
       {"realtime_overruns", runner.counters().overruns},
       {"late_steps", runner.counters().late_steps},
       {"dropped_steps", runner.counters().dropped_steps},
