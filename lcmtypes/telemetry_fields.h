@@ -225,6 +225,8 @@ void Serialize(A* a, lcmt_hyq_event* m) {
   a->Visit("joint", "index", &m->joint);
   a->Visit("bus", "index", &m->bus);
   a->Visit("detail", "text", &m->detail);
+  a->Visit("stop_code", "enum", &m->stop_code);
+  a->Visit("stop", "text", &m->stop);
 }
 
 template <class A>

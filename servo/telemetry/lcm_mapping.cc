@@ -30,6 +30,8 @@ void ToLcm(const SafetyEvent& e, hyq_lcm::lcmt_hyq_event* out) {
   m.joint = e.joint;
   m.bus = e.bus;
   m.detail.assign(e.detail.data(), strnlen(e.detail.data(), e.detail.size()));
+  m.stop_code = static_cast<std::int8_t>(e.stop);
+  m.stop = ToString(e.stop);
 }
 
 }  // namespace hyq::servo

@@ -169,7 +169,8 @@ Telemetry::Telemetry(const TelemetryConfig& config, const CommandChannelConfig& 
   m.ch_timing = channel("TIMING");
   m.ch_health = channel("HEALTH");
   m.ch_event = channel("EVENT");
-  for (std::string* s : {&m.event.from_name, &m.event.to_name, &m.event.reason, &m.event.detail})
+  for (std::string* s :
+       {&m.event.from_name, &m.event.to_name, &m.event.reason, &m.event.detail, &m.event.stop})
     s->reserve(kEventStringCapacity);
   const TelemetrySnapshot& s = m.current;
   m.buffer.resize(static_cast<std::size_t>(std::max(

@@ -32,6 +32,7 @@
 #include "servo/command/command_auth.h"
 #include "hyq_lcm/lcmt_hyq_contact_state.hpp"
 #include "hyq_lcm/lcmt_hyq_event.hpp"
+#include "servo/telemetry/lcm_mapping.h"
 #include "hyq_lcm/lcmt_hyq_health.hpp"
 #include "hyq_lcm/lcmt_hyq_joint_state.hpp"
 #include "hyq_lcm/lcmt_hyq_joint_torque.hpp"
@@ -854,6 +855,20 @@ TEST(TelemetryNoHeap, PushPushEventPopCommand) {
     EXPECT_EQ(guard.allocations(), 0u);
   }
   telemetry.Stop();
+}
+
+TEST(TelemetryLcm, AnEventCarriesTheStopItStarts) {
+  SafetyEvent e = MakeEvent(7, EventReason::kDeviceFault, "device 3 left OP");
+  e.to = ServoMode::kActive;
+  e.stop = StopClass::kDegraded;
+  hyq_lcm::lcmt_hyq_event m{};
+  ToLcm(e, &m);
+  EXPECT_EQ(m.stop_code, static_cast<std::int8_t>(StopClass::kDegraded));
+  EXPECT_EQ(m.stop, "degraded");
+  e.stop = StopClass::kNone;
+  ToLcm(e, &m);
+  EXPECT_EQ(m.stop_code, 0);
+  EXPECT_EQ(m.stop, "none");
 }
 
 }  // namespace

@@ -33,7 +33,7 @@ namespace {
 enum class Wire : std::uint8_t { k1, k2, k8, kCount8, kCount32, kDoubles, kBytes, kMac, kString };
 constexpr Wire kEventLayout[] = {Wire::k8,      Wire::k8, Wire::k1,      Wire::k1,
                                  Wire::kString, Wire::kString, Wire::k2, Wire::kString,
-                                 Wire::k2,      Wire::k2, Wire::kString};
+                                 Wire::k2,      Wire::k2, Wire::kString, Wire::k1, Wire::kString};
 constexpr Wire kCommandLayout[] = {Wire::k8,      Wire::k8,      Wire::k1, Wire::kCount8,
                                    Wire::kDoubles, Wire::kString, Wire::k8, Wire::k8,
                                    Wire::k8,       Wire::k8,      Wire::k8};
