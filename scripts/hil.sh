@@ -214,6 +214,13 @@ if sim:
                  f"{sim.get('contact_speed_m_s', 0):.2f} m/s)")
     print(f"  robot            {'FELL or sat down at %.2f s' % contact_at if fell else 'did not fall while active'}{after}; "
           f"{sim.get('simulated_time_s', 0):.2f} s simulated at {sim.get('speed', 0):.1f}x real time")
+lw = sim.get("lockstep_wall") or {}
+if lw:
+    # hyq-sim's wait for the daemon holds the daemon's cycle and the hand-offs (the daemon's
+    # cycle_time, its own work, overlaps the plant's step in part: it ends after the SYNC went out)
+    print(f"  lock-step wall   {lw['per_step_us']:.1f} us per step: waiting for the daemon "
+          f"{lw['waiting_for_master_us']:.1f} (its cycle {s['cycle_time']['mean_us']:.1f} mean), boards' bus "
+          f"work {lw['bus_us']:.1f}, plant step {lw['plant_step_us']:.1f}, truth {lw['truth_recording_us']:.1f}")
 # the trunk's pose while the reference runs (ACTIVE without its stand-up and sit-down), from the
 # truth: the reference keeps the trunk level at a fixed height, so roll and pitch RMS and the
 # height's s.d. are its errors, which the joint error above does not show directly
