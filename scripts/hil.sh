@@ -9,10 +9,11 @@
 #                  [--build DIR] [--config FILE] [--no-logger] [--candump] [--bus-trace] [--sigterm-after S] [--quiet]
 #                  [--transport shm|udp]
 #
-# --transport: the virtual CAN buses between hyq-sim and the daemon. shm (the default): shared
-#   memory, a doorbell per hand-off instead of a datagram per frame (drivers/shm_channel.h); udp:
-#   python-can's udp_multicast on loopback, which --candump, --bus-trace and python-can tools
-#   need (they choose it).
+# --transport: the virtual CAN buses between hyq-sim and the daemon. shm (the default in
+#   lock-step): shared memory, a doorbell per hand-off instead of a datagram per frame
+#   (drivers/shm_channel.h); udp (the default with --clock realtime, whose runs measure timing
+#   with kernel I/O per cycle as on the robot's SocketCAN): python-can's udp_multicast on
+#   loopback, which --candump, --bus-trace and python-can tools need (they choose it).
 # --config FILE: the daemon's configuration (default config/hyq_servo_sim.yaml), e.g. a copy with
 #   other estimator or gain settings.
 # --bus-trace: hyq-candump records each bus (OUT/bus_<name>.log, candump format, kernel receive
@@ -29,7 +30,7 @@ here="$(cd "$(dirname "$0")/.." && pwd)"
 
 out=hil-run duration=5 reference=trot controller=two_stage mu=0.1 clock=lockstep
 build="$here/build/ci" config="$here/config/hyq_servo_sim.yaml" logger=1 candump=0 bus_trace=0 quiet=0 sigterm_after= servod_bin=
-transport=shm
+transport=
 faults=() sim_args=() servod_args=()
 usage() { sed -n '2,25p' "$0" | sed 's/^# \{0,1\}//'; exit "${1:-0}"; }
 while (($#)); do
@@ -60,6 +61,7 @@ while (($#)); do
   shift
 done
 [[ "$out" = /* ]] || out="$PWD/$out"
+[[ -n "$transport" ]] || { [[ "$clock" == realtime ]] && transport=udp || transport=shm; }
 case "$transport" in
   shm|udp) ;;
   *) echo "hil.sh: --transport: expected shm or udp, found '$transport'" >&2; exit 2 ;;
