@@ -29,6 +29,8 @@ timeout 10 bash -c "exec 3<>/dev/tcp/$host/80" 2>/dev/null || skip "the Debian m
 
 mkdir -p "$work"
 work=$(readlink -f "$work")
+# the network steps get three tries: a mirror's passing hiccup is not the package's failure
+retry3() { "$@" || { sleep 5; "$@"; } || { sleep 15; "$@"; }; }
 root="$work/root"
 results="$work/results"
 debs="$work/debs"
@@ -49,9 +51,9 @@ rm -rf "$work/repack"
 base="$work/bookworm-minbase.tar"
 if [[ ! -f "$base" || -n $(find "$base" -mmin +1440) ]]; then
   echo "deb_package_test: debootstrap bookworm from $mirror"
-  debootstrap --variant=minbase --include=systemd,systemd-sysv,dbus,iproute2 \
+  retry3 debootstrap --variant=minbase --include=systemd,systemd-sysv,dbus,iproute2 \
     --make-tarball="$base.new" bookworm "$work/tarball-tmp" "$mirror" >"$work/debootstrap.log" 2>&1 ||
-    fail "debootstrap --make-tarball failed (see $work/debootstrap.log)"
+    fail "debootstrap --make-tarball failed three times (see $work/debootstrap.log)"
   mv "$base.new" "$base"
   rm -rf "$work/tarball-tmp"
 fi
@@ -63,9 +65,9 @@ echo "deb_package_test: Debian 12 root in $root"
 nspawn=(systemd-nspawn -q -D "$root" --register=no --keep-unit)
 # the package's dependencies from Debian (this is the only step that needs the network)
 depends=$(dpkg-deb -f "$deb" Depends)
-"${nspawn[@]}" env DEBIAN_FRONTEND=noninteractive sh -c \
+retry3 "${nspawn[@]}" env DEBIAN_FRONTEND=noninteractive sh -c \
   "apt-get -q update && apt-get -q -y --no-install-recommends satisfy '$depends'" \
-  >"$work/apt.log" 2>&1 || fail "installing the dependencies ($depends) failed (see $work/apt.log)"
+  >"$work/apt.log" 2>&1 || fail "installing the dependencies ($depends) failed three times (see $work/apt.log)"
 echo "deb_package_test: dependencies installed"
 
 # the driver runs inside the booted root as a unit of its own, then powers it off
