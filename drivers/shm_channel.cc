@@ -186,13 +186,18 @@ ShmChannel::ShmChannel(const ShmOptions& options) : options_(options) {
     owner.store(0);
     unmap_and_fail(std::string("opening the doorbells: ") + std::strerror(err));
   }
-  // frames may already wait for us: make sure a poll() sees them
-  if (!AllIncomingEmpty()) {
-    std::atomic<std::uint32_t>& bell = segment_->bell[Index(options_.side)];
-    if (bell.exchange(1) == 0) {
-      const char b = 1;
-      (void)!::write(bell_rx_fd_, &b, 1);
+  // a previous holder that died may have left its bell set without a byte, or its spinning flag
+  // set (then no writer would ring): start clear, and ring our own bell if frames already wait
+  segment_->spinning[Index(options_.side)].store(0);
+  {
+    char stale[64];
+    while (::read(bell_rx_fd_, stale, sizeof stale) > 0) {
     }
+  }
+  segment_->bell[Index(options_.side)].store(0);
+  if (!AllIncomingEmpty() && segment_->bell[Index(options_.side)].exchange(1) == 0) {
+    const char b = 1;
+    (void)!::write(bell_rx_fd_, &b, 1);
   }
 }
 

@@ -193,6 +193,26 @@ TEST(ShmChannel, ASideHasOneHolderAndADeadHoldersSideIsTakenOver) {
   EXPECT_EQ(got, 0u) << "the frames left for the dead holder are not the new one's";
 }
 
+// a holder that died spinning (writers do not ring a spinning reader) leaves nothing that keeps
+// the next one from being woken
+TEST(ShmChannel, ANewHolderIsWokenAfterOneThatDiedSpinning) {
+  const std::string g = Group("deadspin");
+  ShmChannel devices(Opts(g, "lf", ShmSide::kDevices));
+  const pid_t child = ::fork();
+  if (child == 0) {
+    auto* m = new ShmChannel(Opts(g, "lf", ShmSide::kMaster));
+    m->SetWaiterSpinning(true);
+    ::_exit(0);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ShmChannel master(Opts(g, "lf", ShmSide::kMaster));
+  const std::array<hal::CanFrame, 1> f{Frame(0x181, 8)};
+  std::size_t sent = 0;
+  ASSERT_EQ(devices.Send(f, &sent), hal::CanStatus::kOk);
+  EXPECT_TRUE(Readable(master.poll_fd()));
+}
+
 TEST(ShmChannel, AFullRingRefusesWithoutLosingWhatWasQueued) {
   const std::string g = Group("full");
   ShmChannel devices(Opts(g, "lf", ShmSide::kDevices));
