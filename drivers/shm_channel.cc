@@ -53,7 +53,7 @@ namespace {
 
 using internal::ShmSegment;
 
-int Index(ShmSide s) { return s == ShmSide::kMaster ? 0 : 1; }
+int Index(ShmSide s) { return s == ShmSide::kMaster ? 0 : 1; }  // the other side: 1 − Index
 const char* SideName(ShmSide s) { return s == ShmSide::kMaster ? "master" : "devices"; }
 
 bool ValidName(const std::string& n, std::size_t max) {
@@ -187,18 +187,9 @@ ShmChannel::ShmChannel(const ShmOptions& options) : options_(options) {
     unmap_and_fail(std::string("opening the doorbells: ") + std::strerror(err));
   }
   // a previous holder that died may have left its bell set without a byte, or its spinning flag
-  // set (then no writer would ring): start clear, and ring our own bell if frames already wait
+  // set (then no writer would ring): start clear, with our bell rung if frames already wait
   segment_->spinning[Index(options_.side)].store(0);
-  {
-    char stale[64];
-    while (::read(bell_rx_fd_, stale, sizeof stale) > 0) {
-    }
-  }
-  segment_->bell[Index(options_.side)].store(0);
-  if (!AllIncomingEmpty() && segment_->bell[Index(options_.side)].exchange(1) == 0) {
-    const char b = 1;
-    (void)!::write(bell_rx_fd_, &b, 1);
-  }
+  TakeBell();
 }
 
 ShmChannel::~ShmChannel() {
@@ -228,12 +219,24 @@ bool ShmChannel::AllIncomingEmpty() const noexcept {
   return true;
 }
 
+void ShmChannel::TakeBell() noexcept {
+  char bytes[64];
+  while (::read(bell_rx_fd_, bytes, sizeof bytes) > 0) {
+  }
+  std::atomic<std::uint32_t>& bell = segment_->bell[Index(options_.side)];
+  bell.store(0);  // seq_cst: cleared before the rings are looked at again
+  if (!AllIncomingEmpty() && bell.exchange(1) == 0) {
+    const char b = 1;
+    (void)!::write(bell_rx_fd_, &b, 1);
+  }
+}
+
 void ShmChannel::SetWaiterSpinning(bool on) noexcept {
   if (segment_ != nullptr) segment_->spinning[Index(options_.side)].store(on ? 1 : 0);  // seq_cst
 }
 
 void ShmChannel::Ring() noexcept {
-  const int other = options_.side == ShmSide::kMaster ? Index(ShmSide::kDevices) : Index(ShmSide::kMaster);
+  const int other = 1 - Index(options_.side);
   if (segment_->spinning[other].load() != 0) return;  // it looks again before it sleeps
   if (segment_->bell[other].exchange(1) == 0) {
     const char b = 1;
@@ -244,7 +247,7 @@ void ShmChannel::Ring() noexcept {
 hal::CanStatus ShmChannel::Send(std::span<const hal::CanFrame> frames, std::size_t* sent) noexcept {
   *sent = 0;
   if (segment_ == nullptr) return hal::CanStatus::kClosed;
-  const int other = options_.side == ShmSide::kMaster ? Index(ShmSide::kDevices) : Index(ShmSide::kMaster);
+  const int other = 1 - Index(options_.side);
   internal::ShmRing& out = segment_->slots[slot_].ring[other];
   const std::uint64_t head = out.head.load(std::memory_order_acquire);
   std::uint64_t tail = out.tail.load(std::memory_order_relaxed);
@@ -293,17 +296,9 @@ hal::CanStatus ShmChannel::Receive(std::span<hal::CanFrame> out, std::size_t* re
   }
   // drained: take the bell when every bus of the group is empty for our side (the rule in the
   // header: empty the FIFO, clear the bell, look again, ring it back if frames came meanwhile)
-  std::atomic<std::uint32_t>& bell = segment_->bell[s];
-  if (n < out.size() && bell.load() != 0 && AllIncomingEmpty()) {
-    char bytes[64];
-    while (::read(bell_rx_fd_, bytes, sizeof bytes) > 0) {
-    }
+  if (n < out.size() && segment_->bell[s].load() != 0 && AllIncomingEmpty()) {
+    TakeBell();
     ++bells_taken_;
-    bell.store(0);  // seq_cst: cleared before the rings are looked at again
-    if (!AllIncomingEmpty() && bell.exchange(1) == 0) {
-      const char b = 1;
-      (void)!::write(bell_rx_fd_, &b, 1);
-    }
   }
   return hal::CanStatus::kOk;
 }

@@ -87,7 +87,11 @@ class ShmChannel final : public hal::CanChannel {
   std::uint64_t bells_rung_ = 0, bells_taken_ = 0;
 
   bool AllIncomingEmpty() const noexcept;
+  /// Rings the other side's bell unless it is set or that side's reader spins.
   void Ring() noexcept;
+  /// Empties our FIFO, clears our bell, and rings it again if frames came meanwhile (the rule
+  /// above).
+  void TakeBell() noexcept;
 };
 
 }  // namespace hyq::drivers

@@ -99,6 +99,7 @@ class SimulatedRobot::SyncCounter final : public hal::CanChannel {
   int poll_fd() const noexcept override { return inner_->poll_fd(); }
   bool frames_pending() const noexcept override { return inner_->frames_pending(); }
   bool tells_pending() const noexcept override { return inner_->tells_pending(); }
+  void SetWaiterSpinning(bool on) noexcept override { inner_->SetWaiterSpinning(on); }
   std::uint64_t syncs() const noexcept { return syncs_; }
 
  private:

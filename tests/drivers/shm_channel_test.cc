@@ -48,6 +48,18 @@ hal::CanFrame Frame(std::uint32_t id, std::uint8_t len, bool fd = false) {
   return f;
 }
 
+// a child process opens bus lf's master side (spinning when asked) and exits without closing it
+bool MasterDiesHoldingTheSide(const std::string& group, bool spinning) {
+  const pid_t child = ::fork();
+  if (child == 0) {
+    auto* m = new ShmChannel(Opts(group, "lf", ShmSide::kMaster));
+    m->SetWaiterSpinning(spinning);
+    ::_exit(0);
+  }
+  int status = 0;
+  return ::waitpid(child, &status, 0) == child && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+}
+
 TEST(ShmChannel, FramesCrossBothWaysInOrder) {
   const std::string g = Group("order");
   ShmChannel devices(Opts(g, "lf", ShmSide::kDevices));
@@ -176,14 +188,7 @@ TEST(ShmChannel, ASideHasOneHolderAndADeadHoldersSideIsTakenOver) {
     }
   }
   // a master that died holding the side (no destructor) and left a frame unread
-  const pid_t child = ::fork();
-  if (child == 0) {
-    auto* m = new ShmChannel(Opts(g, "lf", ShmSide::kMaster));
-    (void)m;
-    ::_exit(0);
-  }
-  int status = 0;
-  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(MasterDiesHoldingTheSide(g, false));
   std::size_t sent = 0, got = 0;
   const std::array<hal::CanFrame, 1> f{Frame(0x181, 8)};
   ASSERT_EQ(devices.Send(f, &sent), hal::CanStatus::kOk);
@@ -198,14 +203,7 @@ TEST(ShmChannel, ASideHasOneHolderAndADeadHoldersSideIsTakenOver) {
 TEST(ShmChannel, ANewHolderIsWokenAfterOneThatDiedSpinning) {
   const std::string g = Group("deadspin");
   ShmChannel devices(Opts(g, "lf", ShmSide::kDevices));
-  const pid_t child = ::fork();
-  if (child == 0) {
-    auto* m = new ShmChannel(Opts(g, "lf", ShmSide::kMaster));
-    m->SetWaiterSpinning(true);
-    ::_exit(0);
-  }
-  int status = 0;
-  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(MasterDiesHoldingTheSide(g, true));
   ShmChannel master(Opts(g, "lf", ShmSide::kMaster));
   const std::array<hal::CanFrame, 1> f{Frame(0x181, 8)};
   std::size_t sent = 0;

@@ -28,6 +28,14 @@ struct FakeRoot {
     fs::create_directories(p.parent_path());
     std::ofstream(p) << text << "\n";
   }
+  // one of CPU `cpu`'s idle states as cpuidle shows it
+  void PutIdleState(int cpu, int state, const std::string& name, int latency_us, bool disabled) const {
+    const std::string d = "sys/devices/system/cpu/cpu" + std::to_string(cpu) + "/cpuidle/state" +
+                          std::to_string(state) + "/";
+    Put(d + "name", name);
+    Put(d + "latency", std::to_string(latency_us));
+    Put(d + "disable", disabled ? "1" : "0");
+  }
   HostCheckSettings Settings(int cpu) const {
     HostCheckSettings s;
     s.cpu = cpu;
@@ -63,12 +71,8 @@ TEST(HostCheck, ARealTimeHostPassesEveryHostItem) {
   r.Put("proc/irq/10/smp_affinity_list", "0");
   r.Put("proc/irq/27/smp_affinity_list", "0,2-3");
   r.Put("sys/devices/system/cpu/cpu1/cpufreq/scaling_governor", "performance");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state0/name", "POLL");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state0/latency", "0");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state0/disable", "0");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state1/name", "C6");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state1/latency", "133");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state1/disable", "1");
+  r.PutIdleState(1, 0, "POLL", 0, false);
+  r.PutIdleState(1, 1, "C6", 133, true);
   r.Put("proc/sys/kernel/sched_rt_runtime_us", "950000");
   r.Put("proc/sys/kernel/sched_rt_period_us", "1000000");
   const std::vector<HostItem> items = CheckHost(r.Settings(1));
@@ -92,9 +96,7 @@ TEST(HostCheck, ADesktopKernelGetsEachFixForTheServoCpu) {
   r.Put("proc/irq/44/smp_affinity_list", "1");
   r.Put("proc/irq/45/smp_affinity_list", "0");
   r.Put("sys/devices/system/cpu/cpu1/cpufreq/scaling_governor", "schedutil");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state2/name", "C6");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state2/latency", "133");
-  r.Put("sys/devices/system/cpu/cpu1/cpuidle/state2/disable", "0");
+  r.PutIdleState(1, 2, "C6", 133, false);
   r.Put("proc/sys/kernel/sched_rt_runtime_us", "500000");
   r.Put("proc/sys/kernel/sched_rt_period_us", "1000000");
   const std::vector<HostItem> items = CheckHost(r.Settings(1));
