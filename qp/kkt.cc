@@ -24,6 +24,18 @@ void Problem::Resize(int n, int m) noexcept {
   ubA.setConstant(m, kInf);
 }
 
+void Problem::SetSizes(int n, int m) noexcept {
+  n = std::clamp(n, 0, kMaxVariables);
+  m = std::clamp(m, 0, kMaxConstraints);
+  H.resize(n, n);
+  g.resize(n);
+  lb.setConstant(n, -kInf);
+  ub.setConstant(n, kInf);
+  A.resize(m, n);
+  lbA.setConstant(m, -kInf);
+  ubA.setConstant(m, kInf);
+}
+
 const char* ToString(Status status) noexcept {
   switch (status) {
     case Status::kOptimal: return "optimal";
@@ -45,11 +57,21 @@ double KktResiduals::max() const noexcept {
 
 KktResiduals ComputeKktResiduals(const Problem& p, const VectorN& x, const VectorN& y_bounds,
                                  const VectorM& y_constraints) noexcept {
+  std::array<double, kMaxVariables> hx;
+  std::array<double, kMaxConstraints> ax;
+  return internal::KktResidualsAndProducts(p, x, y_bounds, y_constraints, hx.data(), ax.data());
+}
+
+namespace internal {
+
+KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const VectorN& y_bounds,
+                                     const VectorM& y_constraints, double* hx_out,
+                                     double* ax) noexcept {
   const int n = p.n(), m = p.m();
   const double* H = p.H.data();
   const double* A = p.A.data();
   // A x column by column (contiguous), then everything in one pass per row
-  std::array<double, kMaxConstraints> ax{};
+  for (int k = 0; k < m; ++k) ax[k] = 0.0;
   for (int j = 0; j < n; ++j) {
     const double xj = x(j);
     const double* col = A + j * m;
@@ -59,6 +81,7 @@ KktResiduals ComputeKktResiduals(const Problem& p, const VectorN& x, const Vecto
   for (int i = 0; i < n; ++i) {
     // row i of H is its column i (H symmetric); Aᵀy takes column i of A: both contiguous
     const double hx = Dot(H + i * n, x.data(), n);
+    hx_out[i] = hx;
     const double aty = Dot(A + i * m, y_constraints.data(), m);
     hx_max = std::max(hx_max, std::fabs(hx));
     g_max = std::max(g_max, std::fabs(p.g(i)));
@@ -93,5 +116,7 @@ KktResiduals ComputeKktResiduals(const Problem& p, const VectorN& x, const Vecto
   r.complementarity = compl_ / (std::max(1.0, y_max) * value_scale);
   return r;
 }
+
+}  // namespace internal
 
 }  // namespace hyq::qp

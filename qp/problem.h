@@ -52,6 +52,10 @@ struct Problem {
   /// Sets the sizes and makes every bound infinite, H, g and A zero. Never allocates.
   /// @pre 0 ≤ n ≤ kMaxVariables, 0 ≤ m ≤ kMaxConstraints (otherwise sizes are clamped).
   void Resize(int n, int m) noexcept;
+  /// Sets the sizes and makes every bound infinite, but leaves H, g and A as they are: for a
+  /// caller that writes every entry of them next (nothing zeroed that is overwritten). Never
+  /// allocates. Same preconditions as Resize.
+  void SetSizes(int n, int m) noexcept;
   int n() const noexcept { return static_cast<int>(H.rows()); }
   int m() const noexcept { return static_cast<int>(A.rows()); }
 };

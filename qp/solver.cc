@@ -32,17 +32,30 @@ double MaxAbs(const double* a, int n) {
   return s;
 }
 
-// cx = C x_k, q = H x_k + g, v = L⁻¹ q
+// cx = C x_k, q = H x_k + g, v = L⁻¹ q; H x_k and A x_k from the last KKT check when it was
+// made at x_k (ws->products_valid)
 void Linearise(Workspace* ws) {
   const Problem& p = *ws->problem;
-  const int n = ws->n;
-  for (int i = 0; i < n; ++i) {
-    ws->cx[i] = ws->xk[i];
-    ws->q[i] = p.g(i);
+  const int n = ws->n, m = ws->m;
+  for (int i = 0; i < n; ++i) ws->cx[i] = ws->xk[i];
+  if (ws->products_valid) {
+    for (int i = 0; i < n; ++i) ws->q[i] = p.g(i) + ws->kkt_hx[i];
+    for (int k = 0; k < m; ++k) ws->cx[n + k] = ws->kkt_ax[k];
+  } else {
+    for (int i = 0; i < n; ++i)
+      ws->q[i] = p.g(i) + internal::Dot(p.H.data() + i * n, ws->xk.data(), n);
+    internal::MultiplyA(p, ws->xk.data(), ws->cx.data() + n);
   }
-  internal::MultiplyA(p, ws->xk.data(), ws->cx.data() + n);
-  for (int i = 0; i < n; ++i) ws->q[i] += internal::Dot(p.H.data() + i * n, ws->xk.data(), n);
+  ws->products_valid = false;
   for (int i = 0; i < n; ++i) ws->v[i] = internal::Dot(&ws->linv[i * kN], ws->q.data(), i + 1);
+}
+
+// the KKT residuals of the iterate WriteIterate left in *sol, keeping H x and A x for Linearise
+KktResiduals CheckIterate(Workspace* ws, const Solution& sol) {
+  const KktResiduals r = internal::KktResidualsAndProducts(
+      *ws->problem, sol.x, sol.y_bounds, sol.y_constraints, ws->kkt_hx.data(), ws->kkt_ax.data());
+  ws->products_valid = true;
+  return r;
 }
 
 // x, multipliers and active set from x_k + δ and W
@@ -232,6 +245,7 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
       (m == 0 || std::memcmp(ws.a_copy.data(), p.A.data(), sizeof(double) * m * n) == 0);
 
   ws.problem = &p;
+  ws.products_valid = false;
   ws.n = n;
   ws.m = m;
   ws.rows = n + m;
@@ -348,7 +362,7 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
       }
       WriteIterate(ws, sol);
       have_iterate = true;
-      sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      sol->kkt = CheckIterate(&ws, *sol);
       if (sol->kkt.max() <= settings_.kkt_tolerance || pass >= kMaxRefinements) break;
       // with ε > 0 stationarity includes the proximal term ε δ, which the next outer iteration
       // removes; refinement is for the rows (primal, complementarity) or for ε = 0
@@ -358,7 +372,7 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
         break;
       internal::RefineOnWorkingSet(&ws);
       WriteIterate(ws, sol);
-      sol->kkt = ComputeKktResiduals(p, sol->x, sol->y_bounds, sol->y_constraints);
+      sol->kkt = CheckIterate(&ws, *sol);
       if (sol->kkt.max() <= settings_.kkt_tolerance) break;
       internal::ComputeRowSteps(&ws);
       scan_first = true;

@@ -72,6 +72,12 @@ struct Workspace {
   std::array<double, kN * kN> lw{};
   std::array<double, kN> dw{}, dw_inv{};
 
+  // H x and A x at the iterate of the last KKT check (valid while products_valid): the next
+  // proximal centre is that iterate
+  std::array<double, kN> kkt_hx{};
+  std::array<double, kMaxConstraints> kkt_ax{};
+  bool products_valid = false;
+
   // scratch
   std::array<double, kN> mnew{}, kvec{}, tmp{}, tmp2{}, delta_prev{};
   std::array<double, kMaxRows> cert{};  // signed Farkas multipliers over rows
@@ -87,6 +93,12 @@ struct Workspace {
   std::array<std::int8_t, kMaxRows> warm_side{};  // +1, −1, 2 (equality), 0 from a Solution
   std::array<double, kMaxRows> warm_y{};
 };
+
+/// ComputeKktResiduals that also leaves H x (n entries) in hx and A x (m entries) in ax, for the
+/// next proximal centre x_k = x (Linearise then needs no products of its own).
+KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const VectorN& y_bounds,
+                                     const VectorM& y_constraints, double* hx,
+                                     double* ax) noexcept;
 
 /// out = A x (m entries, overwritten), four columns of A per pass over out.
 inline void MultiplyA(const Problem& p, const double* x, double* out) noexcept {

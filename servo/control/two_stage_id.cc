@@ -3,11 +3,11 @@
 #include <algorithm>
 #include <cmath>
 
-#include <Eigen/QR>
 #include <Eigen/SVD>
 
 #include "servo/control/contact_free_id.h"
 #include "servo/control/friction_cone.h"
+#include "servo/control/pivoted_qr.h"
 
 namespace hyq::servo {
 namespace {
@@ -63,15 +63,6 @@ bool Attempt(qp::Solver& solver, const qp::Problem& p, qp::Budget budget, int ma
   return *st == qp::Status::kDeadline && final_deadline && !final_deadline->Passed();
 }
 
-qp::Settings IdQpSettings(double proximal_weight) {
-  qp::Settings q;
-  q.proximal_weight = proximal_weight;
-  // Stage I's H has rank ≤ 6 and Stage II's is singular too on a trot's contact sets: an ε = 0
-  // factorisation attempt fails on them and only costs time; skipping it changes no answer
-  q.singular_hessian = true;
-  return q;
-}
-
 qp::Status SolveWithRetries(qp::Solver& solver, qp::Solver& last_resort, const qp::Problem& p,
                             qp::Budget budget, qp::Solution* s) noexcept {
   // s reports the attempts together: their iterations and their time
@@ -97,6 +88,15 @@ qp::Status SolveWithRetries(qp::Solver& solver, qp::Solver& last_resort, const q
 }
 
 }  // namespace
+
+qp::Settings IdQpSettings(double proximal_weight) noexcept {
+  qp::Settings q;
+  q.proximal_weight = proximal_weight;
+  // Stage I's H has rank ≤ 6 and Stage II's is singular too on a trot's contact sets: an ε = 0
+  // factorisation attempt fails on them and only costs time; skipping it changes no answer
+  q.singular_hessian = true;
+  return q;
+}
 
 const char* ToString(Fallback f) noexcept {
   switch (f) {
@@ -287,13 +287,12 @@ bool MakeVelocityConsistent(const ContactSet& set, const VectorV& v, double h,
   // the projection onto range(K) = span of the first rank(K) columns of K's QR: with two feet K
   // is 6 × 6 of rank 5 (turning about the line through both feet moves neither), an exact
   // deficiency whose rounding must not count as rank
-  Eigen::ColPivHouseholderQR<decltype(K)> qr;
-  qr.setThreshold(1e-9);
-  qr.compute(K);
-  const int rank = static_cast<int>(qr.rank());
-  x.applyOnTheLeft(qr.householderQ().setLength(rank).adjoint());
+  PivotedQr<3 * kMaxContacts, kB> qr;
+  qr.Compute(K, 1e-9);
+  const int rank = qr.rank();
+  qr.ApplyQt(x, rank);
   x.tail(3 * n - rank).setZero();
-  x.applyOnTheLeft(qr.householderQ().setLength(rank));
+  qr.ApplyQ(x, rank);
   if (!x.allFinite()) return false;
   for (int i = 0; i < n; ++i)
     qdd_des->segment<dynamics::kJointsPerLeg>(dynamics::JointIndex(set.foot[i], 0)) =
@@ -317,20 +316,26 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::V
   k_ = in.v.tail<kJ>() + w.tail<kJ>();
   v_star_q_ = in.v.tail<kJ>() + h * in.qdd_des;  // (5)
 
-  // Z = A⁻¹ R_b (21),  p = j − A⁻¹B (v*_q − k) (22),  G = R_q − (A⁻¹B)ᵀ R_b  (19)
-  Z_.noalias() = dyn.inv.A_inv.lazyProduct(R_b);
+  // Z = A⁻¹ R_b (21),  p = j − A⁻¹B (v*_q − k) (22),  G = R_q − (A⁻¹B)ᵀ R_b  (19), column by
+  // column in fixed-size blocks
+  Z_.resize(kB, nz);
+  G_.resize(kJ, nz);
+  for (int c = 0; c < nz; ++c) {
+    const dynamics::Vector6d rb = R_b.col(c);
+    Z_.col(c).noalias() = dyn.inv.A_inv * rb;
+    G_.col(c) = R_q.col(c);
+    G_.col(c).noalias() -= dyn.inv.A_inv_B.transpose() * rb;
+  }
   p_ = j;
   p_.noalias() -= dyn.inv.A_inv_B * (v_star_q_ - k_);
-  G_ = R_q;
-  G_.noalias() -= dyn.inv.A_inv_B.transpose().lazyProduct(R_b);
 
-  // (27): H = ZᵀAZ = (L⁻¹R_b)ᵀ(L⁻¹R_b) with A = L Lᵀ (exactly symmetric, PSD by construction)
-  p1_.Resize(nz, 2 * nc);
-  dynamics::Matrix6d L_inv = dynamics::Matrix6d::Identity();
-  dyn.factor.llt_A.matrixL().solveInPlace(L_inv);
-  const Eigen::Matrix<double, kB, Eigen::Dynamic, Eigen::ColMajor, kB, kMaxImpulses> Y =
-      L_inv.lazyProduct(R_b);
-  p1_.H.noalias() = Y.transpose().lazyProduct(Y);
+  // (27): H = ZᵀAZ = R_bᵀ A⁻¹ R_b = R_bᵀ Z, the upper triangle mirrored (exactly symmetric;
+  // PSD up to rounding, far inside the proximal weight both solvers add)
+  p1_.SetSizes(nz, 2 * nc);  // every entry of H, g and A is written below
+  for (int c = 0; c < nz; ++c) {
+    const dynamics::Vector6d zc = Z_.col(c);
+    for (int r = 0; r <= c; ++r) p1_.H(r, c) = p1_.H(c, r) = R_b.col(r).dot(zc);
+  }
   if (settings_.objective == StageOneObjective::kKineticEnergy) {
     // g = ZᵀA p + ZᵀB v*_q = R_bᵀ (p + A⁻¹B v*_q)   (27 as printed)
     dynamics::Vector6d pg = p_;
@@ -375,10 +380,24 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
 
   // min ½ ‖h τ_I − G P w‖² (h² × eq 7, same minimiser) s.t. z + P w ≥ 0, friction rows (8),
   // and gᵀP w = 0 (9): Stage I's objective stays at its optimum
-  GP_.noalias() = G_.lazyProduct(P);
-  p2_.Resize(null_dim_, nz + nc + (keep_objective ? 1 : 0));
-  p2_.H.noalias() = GP_.transpose().lazyProduct(GP_);
-  p2_.g.noalias() = -(GP_.transpose() * (h * out->tau_Nm));
+  // G P by P's structure: an internal-force column is dense, a cancelling pair of tangent
+  // directions touches only its contact's r tangent columns of G
+  const int r = set_.tangents;
+  GP_.resize(kJ, null_dim_);
+  for (int c = 0; c < internal_cols_; ++c) GP_.col(c).noalias() = G_ * P.col(c);
+  for (int c = internal_cols_; c < null_dim_; ++c) {
+    const int first = set_.TangentIndex(cancel_contact_[c - internal_cols_], 0);
+    VectorJ col = G_.col(first) * P(first, c);
+    for (int k = 1; k < r; ++k) col += G_.col(first + k) * P(first + k, c);
+    GP_.col(c) = col;
+  }
+  p2_.SetSizes(null_dim_, nz + nc + (keep_objective ? 1 : 0));  // every entry written below
+  const VectorJ h_tau = h * out->tau_Nm;
+  for (int c = 0; c < null_dim_; ++c) {
+    const VectorJ gc = GP_.col(c);
+    for (int q = 0; q <= c; ++q) p2_.H(q, c) = p2_.H(c, q) = GP_.col(q).dot(gc);
+    p2_.g(c) = -gc.dot(h_tau);
+  }
   // w = 0 must be exactly feasible: Stage I's z meets z ≥ 0 and the friction rows only to the
   // solver's tolerance, so the right-hand sides are clamped at 0
   p2_.A.topRows(nz) = P;
@@ -467,9 +486,8 @@ bool TwoStageId::BuildNullSpace() noexcept {
       rows += 3;
     }
   }
-  qr_.setThreshold(settings_.null_space_tolerance);
-  qr_.compute(Wt);
-  const int internal = rows - static_cast<int>(qr_.rank());
+  qr_.Compute(Wt, settings_.null_space_tolerance);
+  const int internal = rows - qr_.rank();
   const int cancelling = static_cast<int>(tangent_null_.cols());
   int frictional = 0;
   for (int i = 0; i < nc; ++i) frictional += !Frictionless(set_, i, settings_.frictionless_mu);
@@ -484,7 +502,7 @@ bool TwoStageId::BuildNullSpace() noexcept {
     // the trailing columns of Q only: Q [0; I] (cheaper than evaluating all of Q)
     Qw_.setZero(rows, internal);
     Qw_.bottomRows(internal).setIdentity();
-    qr_.householderQ().applyThisOnTheLeft(Qw_);
+    for (int j = 0; j < internal; ++j) qr_.ApplyQ(Qw_.col(j), qr_.size());
     // f_i = a n + b t1 + c t2 lifts to z_N = a, z_D,k = (2/r)(b cos θ_k + c sin θ_k)
     for (int j = 0; j < internal; ++j, ++col) {
       const auto f = Qw_.col(j);
@@ -503,8 +521,10 @@ bool TwoStageId::BuildNullSpace() noexcept {
   }
   for (int i = 0; i < nc; ++i) {
     if (Frictionless(set_, i, settings_.frictionless_mu)) continue;
-    for (int j = 0; j < cancelling; ++j, ++col)
+    for (int j = 0; j < cancelling; ++j, ++col) {
+      cancel_contact_[col - internal_cols_] = i;
       for (int k = 0; k < r; ++k) P_(set_.TangentIndex(i, k), col) = tangent_null_(k, j);
+    }
   }
   return true;
 }

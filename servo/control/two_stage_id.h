@@ -49,6 +49,7 @@
 #include "hal/config_key.h"
 #include "qp/solver.h"
 #include "servo/control/contact_model.h"
+#include "servo/control/pivoted_qr.h"
 
 namespace hyq::servo {
 
@@ -147,6 +148,10 @@ struct TwoStageSettings {
 bool MakeVelocityConsistent(const ContactSet& set, const VectorV& v, double h,
                             VectorJ* qdd_des) noexcept;
 
+/// The QP settings of both stages (and, with a large weight, of the last attempt): the given
+/// proximal weight, and the Hessians known to be singular.
+qp::Settings IdQpSettings(double proximal_weight = TwoStageSettings{}.qp_proximal_weight) noexcept;
+
 enum class [[nodiscard]] IdStatus : std::uint8_t { kOk, kFallback, kBadInput };
 const char* ToString(IdStatus s) noexcept;
 
@@ -202,8 +207,7 @@ class TwoStageId {
   // from a QR of its transpose) + per contact the r − 2 combinations of tangent directions that
   // cancel (fixed for a given r: tangent_null_)
   static constexpr int kMaxForceRows = 3 * kMaxContacts;
-  Eigen::ColPivHouseholderQR<Eigen::Matrix<double, Eigen::Dynamic, 6, Eigen::ColMajor,
-                                           kMaxForceRows, 6>> qr_;
+  PivotedQr<kMaxForceRows, 6> qr_;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxForceRows,
                 kMaxForceRows> Qw_;
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, kMaxTangents,
@@ -216,6 +220,8 @@ class TwoStageId {
                 dynamics::kNumJoints, kMaxImpulses> GP_;
   int null_dim_ = 0;
   int internal_cols_ = 0;  // P's leading columns that are internal forces (the rest: tangent pairs)
+  // per cancelling column of P (after the internal ones): the contact whose tangents it combines
+  std::array<int, kMaxContacts * kMaxTangents> cancel_contact_{};
   int last_null_dim_ = -1;
   qp::Problem p2_;
   qp::Solution s2_;
