@@ -52,11 +52,32 @@ void ComputeMinvBlocks(const MassMatrixFactor& f, MinvBlocks* out) {
 
 void ComputeInverseBlocks(const MatrixV& M, const MassMatrixFactor& f, InverseBlocks* out) {
   const auto B = M.topRightCorner<kB, kNumJoints>();
-  // A⁻¹, A⁻¹ B, and F⁻¹ = C − Bᵀ A⁻¹ B (Schur complement of A)
-  out->A_inv = f.llt_A.solve(Matrix6d::Identity());
+  // A⁻¹ = L⁻ᵀ L⁻¹ from A = L Lᵀ: W = L⁻¹ by forward substitution on the identity, then the
+  // lower triangle of WᵀW, mirrored (exactly symmetric; a generic triangular solve with a matrix
+  // right-hand side costs several times this on 6 × 6)
+  const Matrix6d& L = f.llt_A.matrixLLT();  // lower triangle holds L
+  Matrix6d W = Matrix6d::Zero();
+  for (int c = 0; c < kB; ++c) {
+    W(c, c) = 1.0 / L(c, c);
+    for (int r = c + 1; r < kB; ++r) {
+      double s = 0.0;
+      for (int k = c; k < r; ++k) s -= L(r, k) * W(k, c);
+      W(r, c) = s / L(r, r);
+    }
+  }
+  for (int c = 0; c < kB; ++c)
+    for (int r = c; r < kB; ++r) {
+      double s = 0.0;
+      for (int k = r; k < kB; ++k) s += W(k, r) * W(k, c);
+      out->A_inv(r, c) = out->A_inv(c, r) = s;
+    }
+  // A⁻¹ B, and F⁻¹ = C − Bᵀ A⁻¹ B (Schur complement of A), its lower triangle mirrored
   out->A_inv_B.noalias() = out->A_inv * B;
-  out->F_inv = M.bottomRightCorner<kNumJoints, kNumJoints>();
-  out->F_inv.noalias() -= B.transpose() * out->A_inv_B;
+  for (int c = 0; c < kNumJoints; ++c) {
+    const Vector6d ab = out->A_inv_B.col(c);
+    for (int r = c; r < kNumJoints; ++r)
+      out->F_inv(r, c) = out->F_inv(c, r) = M(kB + r, kB + c) - B.col(r).dot(ab);
+  }
 }
 
 }  // namespace hyq::dynamics

@@ -435,11 +435,18 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   const Problem& p = *ws->problem;
   const int n = ws->n;
   const double* h = p.H.data();
-  double* L = ws->chol.data();  // column-major, L(i, k) = L[i + k * kN]
-  for (int j = 0; j < n; ++j)
+  double* L = ws->chol.data();   // column-major, L(i, k) = L[i + k * kN]
+  double* X = ws->linv.data();   // X = L⁻¹, row-major
+  for (int j = 0; j < n; ++j) {
     for (int i = j; i < n; ++i) L[i + j * kN] = h[i + j * n];
+    double* Xj = X + j * kN;
+    for (int c = 0; c < j; ++c) Xj[c] = 0.0;
+    Xj[j] = 1.0;
+  }
   // right-looking Cholesky: column k, then the rank-one update of the trailing block, whose
-  // columns are independent axpys (no chains of dependent dot products)
+  // columns are independent axpys (no chains of dependent dot products). L⁻¹ by the same sweep
+  // on the identity, in the same loop (its work fills the wait for each pivot's square root and
+  // division): row k of X is final once scaled, then removed from the rows below it
   for (int k = 0; k < n; ++k) {
     double* Lk = L + k * kN;
     const double d = Lk[k] + eps;
@@ -449,41 +456,24 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
     Lk[k] = lkk;
     ws->chol_inv_diag[k] = inv;
     for (int i = k + 1; i < n; ++i) Lk[i] *= inv;
+    double* Xk = X + k * kN;
+    for (int c = 0; c <= k; ++c) Xk[c] *= inv;
     for (int j = k + 1; j < n; ++j) {
       const double ljk = Lk[j];
       double* Lj = L + j * kN;
       for (int i = j; i < n; ++i) Lj[i] -= Lk[i] * ljk;
+      double* Xj = X + j * kN;
+      for (int c = 0; c <= k; ++c) Xj[c] -= ljk * Xk[c];
     }
   }
-  // L⁻¹ by the same right-looking sweep on the identity: row k of X = L⁻¹ is final once scaled,
-  // then removed from the rows below it
-  double* X = ws->linv.data();  // row-major
-  for (int i = 0; i < n; ++i) {
-    double* Xi = X + i * kN;
-    for (int c = 0; c < i; ++c) Xi[c] = 0.0;
-    Xi[i] = 1.0;
-  }
-  for (int k = 0; k < n; ++k) {
-    double* Xk = X + k * kN;
-    const double inv = ws->chol_inv_diag[k];
-    for (int c = 0; c <= k; ++c) Xk[c] *= inv;
-    const double* Lk = L + k * kN;
-    for (int i = k + 1; i < n; ++i) {
-      const double lik = Lk[i];
-      double* Xi = X + i * kN;
-      for (int c = 0; c <= k; ++c) Xi[c] -= lik * Xk[c];
-    }
-  }
-  double frobenius2 = 0.0;
   for (int i = 0; i < n; ++i)
-    for (int j = 0; j <= i; ++j) {
-      ws->linvt[j * kN + i] = X[i * kN + j];
-      frobenius2 += X[i * kN + j] * X[i * kN + j];
-    }
+    for (int j = 0; j <= i; ++j) ws->linvt[j * kN + i] = X[i * kN + j];
+  if (relative_floor <= 0.0) return true;
   // pivots can stay well above λ_min(H) (by 1/v_n² for a null vector v): the test that counts is
   // 1/λ_min = ‖L⁻¹‖₂² ≤ ‖L⁻¹‖_F² ≤ n/λ_min, i.e. reject when max H_ii ‖L⁻¹‖_F² > 1/floor
-  if (relative_floor > 0.0 && !(ws->hmax * frobenius2 * relative_floor <= 1.0)) return false;
-  return true;
+  double frobenius2 = 0.0;
+  for (int i = 0; i < n; ++i) frobenius2 += Dot(X + i * kN, X + i * kN, i + 1);
+  return ws->hmax * frobenius2 * relative_floor <= 1.0;
 }
 
 void RefreshRightHandSides(Workspace* ws) noexcept {

@@ -94,6 +94,12 @@ double Objective(const Problem& p, const VectorN& x) {
   return f;
 }
 
+double ObjectiveFromProducts(const Problem& p, const VectorN& x, const double* hx) {
+  double f = 0.0;
+  for (int i = 0; i < p.n(); ++i) f += x(i) * (0.5 * hx[i] + p.g(i));
+  return f;
+}
+
 // δ / ‖δ‖ is a certificate of unboundedness: H r ≈ 0, gᵀ r < 0 and r in the recession cone.
 bool IsRay(const Workspace& ws, double* r) {
   const Problem& p = *ws.problem;
@@ -258,10 +264,16 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
     const std::uint8_t eq = lo == hi;
     equalities_changed = equalities_changed || (eq != ws.is_eq[i] && ws.pos_of[i] >= 0);
     ws.is_eq[i] = eq;
-    ws.lo_finite[i] = std::max(lo, -1e300);
-    ws.hi_finite[i] = std::min(hi, 1e300);
-    ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(ws.lo_finite[i]));
-    ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(ws.hi_finite[i]));
+    // the scales are a function of the bound alone: divide only for a bound that changed
+    const double lo_finite = std::max(lo, -1e300), hi_finite = std::min(hi, 1e300);
+    if (!(lo_finite == ws.lo_finite[i])) {
+      ws.lo_finite[i] = lo_finite;
+      ws.lo_scale[i] = 1.0 / (1.0 + std::fabs(lo_finite));
+    }
+    if (!(hi_finite == ws.hi_finite[i])) {
+      ws.hi_finite[i] = hi_finite;
+      ws.hi_scale[i] = 1.0 / (1.0 + std::fabs(hi_finite));
+    }
   }
   ws.hmax = 0.0;
   for (int i = 0; i < n; ++i) ws.hmax = std::max(ws.hmax, p.H(i, i));
@@ -345,6 +357,7 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
           sol->y_bounds(i) = ws.cert[i] / wmax;
         }
         for (int k = 0; k < m; ++k) sol->y_constraints(k) = ws.cert[n + k] / wmax;
+        ws.products_valid = false;  // x is not the iterate they belong to
         status = Status::kInfeasible;
         stop = true;
         break;
@@ -413,7 +426,9 @@ Status Solver::Solve(const Problem& p, const Budget& budget, Solution* sol) noex
     }
     step_prev = step;
   }
-  sol->objective = Objective(p, sol->x);
+  // H x from the last KKT check when it was made at this x
+  sol->objective = ws.products_valid ? ObjectiveFromProducts(p, sol->x, ws.kkt_hx.data())
+                                     : Objective(p, sol->x);
   // finite data can still overflow (H = diag(1e308), g = 1e308): an x the caller would use must
   // be finite, else the data were unusable
   if (status != Status::kInfeasible &&

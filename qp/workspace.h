@@ -29,6 +29,12 @@ inline double Dot(const double* a, const double* b, int n) noexcept {
   return (s0 + s1) + (s2 + s3);
 }
 
+inline constexpr std::array<double, kMaxRows> Filled(double value) {
+  std::array<double, kMaxRows> a{};
+  for (double& x : a) x = value;
+  return a;
+}
+
 struct Workspace {
   const Problem* problem = nullptr;
   int n = 0, m = 0, rows = 0;
@@ -48,7 +54,8 @@ struct Workspace {
   std::array<double, kN * kN> linvt{};  // the same transposed: linvt[j * kN + i] = (L⁻¹)(i, j)
   std::array<double, kN> chol_inv_diag{};
   // 1 / (1 + |bound|) per row and side, to rank violations without dividing
-  std::array<double, kMaxRows> lo_scale{}, hi_scale{};
+  // (kept from solve to solve, recomputed for a bound that changed: initially all bounds 0)
+  std::array<double, kMaxRows> lo_scale = Filled(1.0), hi_scale = Filled(1.0);
   std::array<double, kMaxRows> lo_finite{}, hi_finite{};  // lo, hi with ±inf as ∓1e300
 
   // proximal centre x_k, its row values C x_k, gradient q = H x_k + g, v = L⁻¹ q

@@ -336,6 +336,14 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::V
     const dynamics::Vector6d zc = Z_.col(c);
     for (int r = 0; r <= c; ++r) p1_.H(r, c) = p1_.H(c, r) = R_b.col(r).dot(zc);
   }
+  // Rᵀ v* at z = 0: R_bᵀ p + R_qᵀ v*_q, where column c of R_q is zero outside its contact's leg
+  qp::VectorN rv(nz);
+  for (int c = 0; c < nz; ++c) {
+    const int contact = c < nc ? c : (c - nc) / set_.tangents;
+    const int leg = dynamics::JointIndex(set_.foot[contact], 0);
+    rv(c) = R_b.col(c).dot(p_) + R_q.col(c).segment<dynamics::kJointsPerLeg>(leg).dot(
+                                     v_star_q_.segment<dynamics::kJointsPerLeg>(leg));
+  }
   if (settings_.objective == StageOneObjective::kKineticEnergy) {
     // g = ZᵀA p + ZᵀB v*_q = R_bᵀ (p + A⁻¹B v*_q)   (27 as printed)
     dynamics::Vector6d pg = p_;
@@ -343,8 +351,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::V
     p1_.g.noalias() = R_b.transpose() * pg;
   } else {
     // g = R_bᵀ p + R_qᵀ v*_q: then H z + g = R_bᵀ (Z z + p) + R_qᵀ v*_q = Rᵀ v*
-    p1_.g.noalias() = R_b.transpose() * p_;
-    p1_.g.noalias() += R_q.transpose() * v_star_q_;
+    p1_.g = rv;
   }
   p1_.lb.setZero();  // (29); ub stays +inf
   for (int i = 0; i < nc; ++i) {
@@ -354,8 +361,8 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::V
   for (int i = 0; i < nc; ++i) {
     // (28): N_iᵀ v* = N_b,iᵀ (Z z + p) + N_q,iᵀ v*_q ≥ 0
     const int ni = set_.NormalIndex(i);
-    p1_.A.row(i).noalias() = R_b.col(ni).transpose() * Z_;
-    p1_.lbA(i) = -(R_b.col(ni).dot(p_) + R_q.col(ni).dot(v_star_q_));
+    p1_.A.row(i) = p1_.H.row(ni);  // R_b,niᵀ Z
+    p1_.lbA(i) = -rv(ni);
     // (30): μ_i c_N,i − Σ_k c_D,ik ≥ 0 (servo/control/friction_cone.h)
     FrictionConeRow(set_, i, p1_.A.row(nc + i).head(nz));
     p1_.lbA(nc + i) = Frictionless(set_, i, settings_.frictionless_mu) ? -qp::kInf : 0.0;  // implied
