@@ -1,5 +1,6 @@
 #include "qp/dual_active_set.h"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -33,9 +34,10 @@ void BackwardChol(const Workspace& ws, double* z) {
 void RowVector(const Workspace& ws, int row, double* m) {
   const int n = ws.n;
   if (row < n) {
-    // L⁻¹ e_row is column `row` of L⁻¹
+    // L⁻¹ e_row is column `row` of L⁻¹, i.e. row `row` of its transpose (contiguous)
     for (int j = 0; j < row; ++j) m[j] = 0.0;
-    for (int j = row; j < n; ++j) m[j] = ws.linv[j * kN + row];
+    const double* column = &ws.linvt[row * kN];
+    for (int j = row; j < n; ++j) m[j] = column[j];
   } else {
     const Problem& p = *ws.problem;
     for (int j = 0; j < n; ++j) m[j] = p.A(row - n, j);
@@ -43,13 +45,18 @@ void RowVector(const Workspace& ws, int row, double* m) {
   }
 }
 
+// m_row is zero before this entry: a bound row's m is column `row` of L⁻¹ (lower triangular),
+// a row of A's is dense. Products with m start there.
+int FirstNonZero(const Workspace& ws, int row) { return row < ws.n ? row : 0; }
+
 double SideBound(const Workspace& ws, int row, int sign) {
   return sign > 0 ? ws.hi[row] : ws.lo[row];
 }
 
 // signed right-hand side of (2): d = s (b_s − C_row x_k + m_rowᵀ v)
 double RightHandSide(const Workspace& ws, int row, int sign, const double* m) {
-  return sign * (SideBound(ws, row, sign) - ws.cx[row] + Dot(m, ws.v.data(), ws.n));
+  const int f = FirstNonZero(ws, row);
+  return sign * (SideBound(ws, row, sign) - ws.cx[row] + Dot(m + f, ws.v.data() + f, ws.n - f));
 }
 
 // Lw Dw Lwᵀ without position j: the rows below j get the rank-one term Dw_j l lᵀ back, l being
@@ -104,8 +111,12 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
   const double* m = ws->mnew.data();
   double* r = ws->tmp.data();
   double* l = ws->tmp2.data();
-  const double mm = Dot(m, m, n);
-  for (int p = 0; p < nw; ++p) r[p] = ws->w_sign[p] * sign * Dot(&ws->mw[p * kN], m, n);
+  const int first = FirstNonZero(*ws, row);
+  const double mm = Dot(m + first, m + first, n - first);
+  for (int p = 0; p < nw; ++p) {
+    const int f = std::max(first, FirstNonZero(*ws, ws->w_row[p]));
+    r[p] = ws->w_sign[p] * sign * Dot(&ws->mw[p * kN] + f, m + f, n - f);
+  }
   double pivot = mm;
   for (int p = 0; p < nw; ++p) {
     const double* Lp = &ws->lw[p * kN];
@@ -510,7 +521,7 @@ void ComputeStep(Workspace* ws) noexcept {
     const double a = -ws->w_sign[p] * ws->lambda[p];
     if (a == 0.0) continue;
     const double* mp = &ws->mw[p * kN];
-    for (int k = 0; k < n; ++k) u[k] += a * mp[k];
+    for (int k = FirstNonZero(*ws, ws->w_row[p]); k < n; ++k) u[k] += a * mp[k];
   }
   // δ = L⁻ᵀ (u − v)
   double* delta = ws->delta.data();
