@@ -193,39 +193,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
     // v ← v − M⁻¹J_cᵀ (J_c M⁻¹ J_cᵀ)⁻¹ J_c v: the velocity an inelastic impact of the stance
     // contacts would leave (M-orthogonal projection onto J_c v = 0), so the method does not try
     // to absorb, within h, contact-point velocities the rigid-contact model cannot have
-    const int rows = 3 * set_.count;
-    Eigen::Matrix<double, dynamics::kNv, Eigen::Dynamic, Eigen::ColMajor, dynamics::kNv, 12> MiJt(
-        dynamics::kNv, rows);
-    Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> Jv(rows);
-    for (int i = 0; i < set_.count; ++i) {
-      Jv.segment<3>(3 * i) = set_.J_c[i] * in.v;
-      for (int a = 0; a < 3; ++a) {
-        VectorV col = set_.J_c[i].row(a).transpose();
-        dynamics::SolveInPlace(dyn.factor, &col);
-        MiJt.col(3 * i + a) = col;
-      }
-    }
-    // G = J_c M⁻¹ J_cᵀ by 3 × 3 blocks, upper ones mirrored: J_c,i is zero outside the base
-    // columns and its own leg's three, so fixed-size blocks skip the zeros that a general
-    // product of the dynamic-size matrices would multiply
-    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12> G(rows, rows);
-    for (int i = 0; i < set_.count; ++i) {
-      const int leg = kB + dynamics::JointIndex(set_.foot[i], 0);
-      const auto Jb = set_.J_c[i].leftCols<kB>();
-      const auto Jq = set_.J_c[i].middleCols<dynamics::kJointsPerLeg>(leg);
-      for (int j = i; j < set_.count; ++j) {
-        Eigen::Matrix3d g;
-        g.noalias() = Jb * MiJt.block<kB, 3>(0, 3 * j);
-        g.noalias() += Jq * MiJt.block<dynamics::kJointsPerLeg, 3>(leg, 3 * j);
-        G.block<3, 3>(3 * i, 3 * j) = g;
-        if (j != i) G.block<3, 3>(3 * j, 3 * i) = g.transpose();
-      }
-    }
-    proj_llt_.compute(G);
-    if (proj_llt_.info() == Eigen::Success) {
-      const Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> lam = proj_llt_.solve(Jv);
-      consistent_.v.noalias() -= MiJt * lam;
-    }
+    (void)ProjectContactVelocity(set_, dyn, &consistent_.v);
   }
   if (settings_.velocity_consistent_qdd)
     (void)MakeVelocityConsistent(set_, consistent_.v, h, &consistent_.qdd_des);
@@ -261,6 +229,65 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
     return IdStatus::kFallback;
   }
   return IdStatus::kOk;
+}
+
+// v ← v − M⁻¹J_cᵀ (J_c M⁻¹ J_cᵀ)⁻¹ J_c v.
+bool ProjectContactVelocity(const ContactSet& set, const dynamics::CycleDynamics& dyn,
+                            VectorV* v) noexcept {
+  if (set.count == 0) return true;
+  // With M's factorisation (dynamics/mass_matrix_factor.h: Y = B C⁻¹, Ā = A − Y Bᵀ) and J_c,i
+  // zero outside the base columns and its own leg l_i's three (J_b,i, J_q,i), per contact
+  //   S_i = J_b,iᵀ − Y_l_i J_q,iᵀ,  X_i = Ā⁻¹ S_i,  X_c,i = C_l_i⁻¹ J_q,iᵀ
+  //   M⁻¹ J_c,iᵀ = [X_i; leg l: δ_l,l_i X_c,i − Y_lᵀ X_i]
+  //   G_ij = J_c,i M⁻¹ J_c,jᵀ = S_iᵀ X_j + δ_ij J_q,i X_c,i      (the feet are on distinct legs)
+  // so neither G nor the update needs an 18-dof solve per row of J_c
+  const int nc = set.count;
+  const int rows = 3 * nc;
+  std::array<Eigen::Matrix<double, kB, 3>, kMaxContacts> S, X;
+  std::array<Eigen::Matrix3d, kMaxContacts> Xc;
+  Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> Jv(rows);
+  for (int i = 0; i < nc; ++i) {
+    const int leg = set.foot[i];
+    const int first = dynamics::JointIndex(leg, 0);
+    const Eigen::Matrix3d Jq = set.J_c[i].middleCols<dynamics::kJointsPerLeg>(kB + first);
+    Jv.segment<3>(3 * i).noalias() = set.J_c[i] * *v;
+    S[i] = set.J_c[i].leftCols<kB>().transpose();
+    S[i].noalias() -= dyn.factor.Y.middleCols<dynamics::kJointsPerLeg>(first) * Jq.transpose();
+    for (int c = 0; c < 3; ++c) {
+      X[i].col(c) = dyn.factor.llt_Abar.solve(dynamics::Vector6d(S[i].col(c)));
+      Xc[i].col(c) = dyn.factor.llt_C[leg].solve(Eigen::Vector3d(Jq.row(c).transpose()));
+    }
+  }
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12> G(rows, rows);
+  for (int i = 0; i < nc; ++i) {
+    for (int j = i; j < nc; ++j) {
+      Eigen::Matrix3d g;
+      g.noalias() = S[i].transpose() * X[j];
+      if (j == i) {
+        const int first = dynamics::JointIndex(set.foot[i], 0);
+        g.noalias() += set.J_c[i].middleCols<dynamics::kJointsPerLeg>(kB + first) * Xc[i];
+      }
+      G.block<3, 3>(3 * i, 3 * j) = g;
+      if (j != i) G.block<3, 3>(3 * j, 3 * i) = g.transpose();
+    }
+  }
+  Eigen::LLT<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12>> llt(G);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> lam = llt.solve(Jv);
+  // v −= M⁻¹ J_cᵀ λ: the base part x_b = Σ X_i λ_i; leg l: X_c,i λ_i (its own foot) − Y_lᵀ x_b
+  dynamics::Vector6d x_b = dynamics::Vector6d::Zero();
+  for (int i = 0; i < nc; ++i) x_b.noalias() += X[i] * lam.segment<3>(3 * i);
+  v->head<kB>() -= x_b;
+  for (int leg = 0; leg < dynamics::kNumLegs; ++leg) {
+    const int first = dynamics::JointIndex(leg, 0);
+    v->segment<dynamics::kJointsPerLeg>(kB + first).noalias() +=
+        dyn.factor.Y.middleCols<dynamics::kJointsPerLeg>(first).transpose() * x_b;
+  }
+  for (int i = 0; i < nc; ++i) {
+    const int first = dynamics::JointIndex(set.foot[i], 0);
+    v->segment<dynamics::kJointsPerLeg>(kB + first).noalias() -= Xc[i] * lam.segment<3>(3 * i);
+  }
+  return true;
 }
 
 // Stance foot i on leg l: J_c,i (v + h v̇) = 0 with v̇ = [a_b; q̈] gives

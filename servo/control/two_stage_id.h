@@ -148,6 +148,15 @@ struct TwoStageSettings {
 bool MakeVelocityConsistent(const ContactSet& set, const VectorV& v, double h,
                             VectorJ* qdd_des) noexcept;
 
+/// v ← v − M⁻¹J_cᵀ (J_c M⁻¹ J_cᵀ)⁻¹ J_c v for the stance contacts of `set` (J_c: their contact
+/// point Jacobians): the M-orthogonal projection onto J_c v = 0, the velocity an inelastic impact
+/// of those contacts would leave. From M's factorisation in `dyn` and J_c's structure (each
+/// contact on the base and its own leg), without an 18-dof solve per row of J_c. Returns false,
+/// leaving *v as given, when J_c M⁻¹ J_cᵀ does not factor (dependent contact rows). Never
+/// allocates.
+bool ProjectContactVelocity(const ContactSet& set, const dynamics::CycleDynamics& dyn,
+                            VectorV* v) noexcept;
+
 /// The QP settings of both stages (and, with a large weight, of the last attempt): the given
 /// proximal weight, and the Hessians known to be singular.
 qp::Settings IdQpSettings(double proximal_weight = TwoStageSettings{}.qp_proximal_weight) noexcept;
@@ -230,8 +239,6 @@ class TwoStageId {
 
   FallbackCounters counters_;
   IdInput consistent_;
-  Eigen::LLT<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12>>
-      proj_llt_;
 };
 
 }  // namespace hyq::servo
