@@ -13,15 +13,10 @@ namespace hyq::qp {
 using internal::Dot;
 
 void Problem::Resize(int n, int m) noexcept {
-  n = std::clamp(n, 0, kMaxVariables);
-  m = std::clamp(m, 0, kMaxConstraints);
-  H.setZero(n, n);
-  g.setZero(n);
-  lb.setConstant(n, -kInf);
-  ub.setConstant(n, kInf);
-  A.setZero(m, n);
-  lbA.setConstant(m, -kInf);
-  ubA.setConstant(m, kInf);
+  SetSizes(n, m);
+  H.setZero();
+  g.setZero();
+  A.setZero();
 }
 
 void Problem::SetSizes(int n, int m) noexcept {

@@ -60,32 +60,44 @@ const std::vector<IdInput>& RecordedTrot(int feet) {
   return by_feet[feet];
 }
 
+// The controller replaying recorded inputs with `feet` in stance: one cycle is the dynamics and
+// the controller's answer, what BM_WholeId times.
+struct Replay {
+  Replay(int feet, ControllerKind kind) : ctl(testing::HyqModel(), Config(kind)) {
+    ref.stance = Stance(feet);
+    env.mu = {0.1, 0.1, 0.1, 0.1};
+  }
+  static ControllerConfig Config(ControllerKind kind) {
+    ControllerConfig cfg;
+    cfg.kind = kind;
+    return cfg;
+  }
+  IdStatus Cycle(const IdInput& in, IdOutput* out) {
+    ref.qdd = in.qdd_des;
+    ref.q = in.q.tail<12>();
+    ref.qd = in.v.tail<12>();
+    (void)dynamics::ComputeCycleDynamics(testing::HyqModel(), in.q, in.v, dyn.get());
+    return ctl.Compute(*dyn, in.q, in.v, ref, env, in.dt, out);
+  }
+  Controller ctl;
+  std::unique_ptr<dynamics::CycleDynamics> dyn = std::make_unique<dynamics::CycleDynamics>();
+  JointReference ref;
+  ContactEnvironment env;
+};
+
 void BM_WholeId(benchmark::State& state) {
   const int feet = static_cast<int>(state.range(0));
   const auto kind = static_cast<ControllerKind>(state.range(1));
   const auto& seq = RecordedTrot(feet);
-  ControllerConfig cfg;
-  cfg.kind = kind;
-  Controller ctl(testing::HyqModel(), cfg);
-  auto dyn = std::make_unique<dynamics::CycleDynamics>();
-  JointReference ref;
-  ref.stance = Stance(feet);
-  ContactEnvironment env;
-  env.mu = {0.1, 0.1, 0.1, 0.1};
+  Replay replay(feet, kind);
   IdOutput out;
   testing::LatencyRecorder rec(2'000'000);
   std::size_t i = 0;
   std::int64_t fallbacks = 0, iters1 = 0, iters2 = 0, max_iters = 0;
   for (auto _ : state) {
     const IdInput& in = seq[i++ % seq.size()];
-    ref.qdd = in.qdd_des;
-    ref.q = in.q.tail<12>();
-    ref.qd = in.v.tail<12>();
     IdStatus st;
-    rec.Time([&] {
-      (void)dynamics::ComputeCycleDynamics(testing::HyqModel(), in.q, in.v, dyn.get());
-      st = ctl.Compute(*dyn, in.q, in.v, ref, env, in.dt, &out);
-    });
+    rec.Time([&] { st = replay.Cycle(in, &out); });
     if (st != IdStatus::kOk) ++fallbacks;
     iters1 += out.stage1.iterations;
     iters2 += out.stage2.iterations;
@@ -147,23 +159,14 @@ const std::vector<IdCycle>& IdInstances(int feet) {
   std::vector<IdCycle>& out = by_feet[feet];
   if (!out.empty()) return out;
   const auto& seq = RecordedTrot(feet);
-  Controller ctl(testing::HyqModel(), ControllerConfig{});
-  auto dyn = std::make_unique<dynamics::CycleDynamics>();
-  JointReference ref;
-  ref.stance = Stance(feet);
-  ContactEnvironment env;
-  env.mu = {0.1, 0.1, 0.1, 0.1};
+  Replay replay(feet, ControllerKind::kTwoStageId);
   IdOutput o;
   for (const IdInput& in : seq) {
-    ref.qdd = in.qdd_des;
-    ref.q = in.q.tail<12>();
-    ref.qd = in.v.tail<12>();
-    (void)dynamics::ComputeCycleDynamics(testing::HyqModel(), in.q, in.v, dyn.get());
-    (void)ctl.Compute(*dyn, in.q, in.v, ref, env, in.dt, &o);
+    (void)replay.Cycle(in, &o);
     if (!o.stage1.ran) continue;
     IdCycle c;
     c.input = &in;
-    const TwoStageId& id = ctl.two_stage();
+    const TwoStageId& id = replay.ctl.two_stage();
     c.stage1 = QpInstance::From(id.stage1_problem(), o.stage1.objective, o.stage1.status);
     c.has_stage2 = o.stage2.ran;
     // the stage report's objective is ½‖τ‖², not the QP's: recompute the QP's at its answer
