@@ -35,6 +35,8 @@ struct ContactSet {
   int num_impulses() const noexcept { return count * (1 + tangents); }
   int NormalIndex(int i) const noexcept { return i; }
   int TangentIndex(int i, int k) const noexcept { return count + tangents * i + k; }
+  /// The contact whose impulse z(c) is (the inverse of NormalIndex and TangentIndex).
+  int ContactOfImpulse(int c) const noexcept { return c < count ? c : (c - count) / tangents; }
   /// d_ik = cos(2πk/r) t1 + sin(2πk/r) t2
   Eigen::Vector3d Direction(int i, int k) const noexcept {
     return cos_k[k] * t1_W[i] + sin_k[k] * t2_W[i];

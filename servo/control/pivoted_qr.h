@@ -39,7 +39,7 @@ class PivotedQr {
       if (best != k) qr_.col(k).swap(qr_.col(best));
       // the reflector that maps column k's part below row k onto β e_k
       const double c0 = qr_(k, k);
-      const double tail2 = best_norm2 - c0 * c0;
+      const double tail2 = qr_.col(k).segment(k + 1, rows_ - k - 1).squaredNorm();
       double beta = c0;
       tau_[k] = 0.0;
       if (tail2 > std::numeric_limits<double>::min()) {

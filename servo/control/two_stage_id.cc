@@ -244,18 +244,18 @@ bool ProjectContactVelocity(const ContactSet& set, const dynamics::CycleDynamics
   const int nc = set.count;
   const int rows = 3 * nc;
   std::array<Eigen::Matrix<double, kB, 3>, kMaxContacts> S, X;
-  std::array<Eigen::Matrix3d, kMaxContacts> Xc;
+  std::array<Eigen::Matrix3d, kMaxContacts> Jq, Xc;
   Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> Jv(rows);
   for (int i = 0; i < nc; ++i) {
     const int leg = set.foot[i];
     const int first = dynamics::JointIndex(leg, 0);
-    const Eigen::Matrix3d Jq = set.J_c[i].middleCols<dynamics::kJointsPerLeg>(kB + first);
+    Jq[i] = set.J_c[i].middleCols<dynamics::kJointsPerLeg>(kB + first);
     Jv.segment<3>(3 * i).noalias() = set.J_c[i] * *v;
     S[i] = set.J_c[i].leftCols<kB>().transpose();
-    S[i].noalias() -= dyn.factor.Y.middleCols<dynamics::kJointsPerLeg>(first) * Jq.transpose();
+    S[i].noalias() -= dyn.factor.Y.middleCols<dynamics::kJointsPerLeg>(first) * Jq[i].transpose();
     for (int c = 0; c < 3; ++c) {
       X[i].col(c) = dyn.factor.llt_Abar.solve(dynamics::Vector6d(S[i].col(c)));
-      Xc[i].col(c) = dyn.factor.llt_C[leg].solve(Eigen::Vector3d(Jq.row(c).transpose()));
+      Xc[i].col(c) = dyn.factor.llt_C[leg].solve(Eigen::Vector3d(Jq[i].row(c).transpose()));
     }
   }
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12> G(rows, rows);
@@ -263,10 +263,7 @@ bool ProjectContactVelocity(const ContactSet& set, const dynamics::CycleDynamics
     for (int j = i; j < nc; ++j) {
       Eigen::Matrix3d g;
       g.noalias() = S[i].transpose() * X[j];
-      if (j == i) {
-        const int first = dynamics::JointIndex(set.foot[i], 0);
-        g.noalias() += set.J_c[i].middleCols<dynamics::kJointsPerLeg>(kB + first) * Xc[i];
-      }
+      if (j == i) g.noalias() += Jq[i] * Xc[i];
       G.block<3, 3>(3 * i, 3 * j) = g;
       if (j != i) G.block<3, 3>(3 * j, 3 * i) = g.transpose();
     }
@@ -366,8 +363,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::V
   // Rᵀ v* at z = 0: R_bᵀ p + R_qᵀ v*_q, where column c of R_q is zero outside its contact's leg
   qp::VectorN rv(nz);
   for (int c = 0; c < nz; ++c) {
-    const int contact = c < nc ? c : (c - nc) / set_.tangents;
-    const int leg = dynamics::JointIndex(set_.foot[contact], 0);
+    const int leg = dynamics::JointIndex(set_.foot[set_.ContactOfImpulse(c)], 0);
     rv(c) = R_b.col(c).dot(p_) + R_q.col(c).segment<dynamics::kJointsPerLeg>(leg).dot(
                                      v_star_q_.segment<dynamics::kJointsPerLeg>(leg));
   }

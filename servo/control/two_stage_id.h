@@ -42,8 +42,7 @@
 #include <limits>
 #include <optional>
 
-#include <Eigen/Eigenvalues>
-#include <Eigen/QR>
+#include <Eigen/Cholesky>
 
 #include "dynamics/cycle_dynamics.h"
 #include "hal/config_key.h"

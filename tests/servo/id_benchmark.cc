@@ -218,14 +218,14 @@ void BM_IdQp(benchmark::State& state) {
       if (two) st2 = solver2.Solve(p2, b2, &s2);
     });
     failures += (st1 != qp::Status::kOptimal) + (st2 != qp::Status::kOptimal);
-    auto agree = [&](const qp::Solution& s, const QpInstance& q) {
+    auto tally = [&](const qp::Solution& s, const QpInstance& q) {
       const double rel = std::abs(s.objective - q.objective) / std::max(1.0, std::abs(q.objective));
       worst_objective_ppb = std::max<std::int64_t>(worst_objective_ppb, std::llround(rel * 1e9));
       iterations += s.iterations;
       outer += s.outer_iterations;
     };
-    if (one) agree(s1, c.stage1);
-    if (two) agree(s2, c.stage2);
+    if (one) tally(s1, c.stage1);
+    if (two) tally(s2, c.stage2);
   }
   rec.Publish(&state);
   state.counters["fail"] = static_cast<double>(failures);
