@@ -1,9 +1,56 @@
 #include "dynamics/mass_matrix_factor.h"
 
+#include <cmath>
+
 namespace hyq::dynamics {
 namespace {
 constexpr int kB = kNumBaseDofs;
 constexpr int kL = kJointsPerLeg;
+
+// A = L Lᵀ for a symmetric positive-definite fixed-size A (lower triangle read), L lower
+// triangular with zeros above. False when a pivot is not positive (or NaN).
+template <int N>
+bool Cholesky(const Eigen::Matrix<double, N, N>& a, Eigen::Matrix<double, N, N>* l) {
+  Eigen::Matrix<double, N, N>& L = *l;
+  L.setZero();
+  for (int c = 0; c < N; ++c) {
+    double d = a(c, c);
+    for (int k = 0; k < c; ++k) d -= L(c, k) * L(c, k);
+    if (!(d > 0.0)) return false;
+    const double lcc = std::sqrt(d);
+    const double inv = 1.0 / lcc;
+    L(c, c) = lcc;
+    for (int r = c + 1; r < N; ++r) {
+      double s = a(r, c);
+      for (int k = 0; k < c; ++k) s -= L(r, k) * L(c, k);
+      L(r, c) = s * inv;
+    }
+  }
+  return true;
+}
+
+// A⁻¹ = L⁻ᵀ L⁻¹ from A = L Lᵀ: W = L⁻¹ by forward substitution on the identity, then the lower
+// triangle of WᵀW, mirrored (exactly symmetric; a generic triangular solve with a matrix
+// right-hand side costs several times this on 3 × 3 and 6 × 6)
+template <int N>
+void InverseFromCholesky(const Eigen::Matrix<double, N, N>& L, Eigen::Matrix<double, N, N>* out) {
+  Eigen::Matrix<double, N, N> W = Eigen::Matrix<double, N, N>::Zero();
+  for (int c = 0; c < N; ++c) {
+    W(c, c) = 1.0 / L(c, c);
+    for (int r = c + 1; r < N; ++r) {
+      double s = 0.0;
+      for (int k = c; k < r; ++k) s -= L(r, k) * W(k, c);
+      W(r, c) = s / L(r, r);
+    }
+  }
+  for (int c = 0; c < N; ++c)
+    for (int r = c; r < N; ++r) {
+      double s = 0.0;
+      for (int k = r; k < N; ++k) s += W(k, r) * W(k, c);
+      (*out)(r, c) = (*out)(c, r) = s;
+    }
+}
+
 }  // namespace
 
 FactorStatus FactorMassMatrix(const MatrixV& M, MassMatrixFactor* out) {
@@ -11,17 +58,17 @@ FactorStatus FactorMassMatrix(const MatrixV& M, MassMatrixFactor* out) {
   Matrix6d Abar = M.topLeftCorner<kB, kB>();
   for (int leg = 0; leg < kNumLegs; ++leg) {
     const int o = kB + kL * leg;
-    out->llt_C[leg].compute(M.block<kL, kL>(o, o));
-    if (out->llt_C[leg].info() != Eigen::Success) return FactorStatus::kNotPositiveDefinite;
+    Eigen::Matrix3d L;
+    if (!Cholesky<kL>(M.block<kL, kL>(o, o), &L)) return FactorStatus::kNotPositiveDefinite;
+    InverseFromCholesky<kL>(L, &out->C_inv[leg]);
     const auto B_l = M.block<kB, kL>(0, o);
-    // Y_l = B_l C_l⁻¹  ⇔  C_l Y_lᵀ = B_lᵀ
-    out->Y.middleCols<kL>(kL * leg) = out->llt_C[leg].solve(B_l.transpose()).transpose();
+    out->Y.middleCols<kL>(kL * leg).noalias() = B_l * out->C_inv[leg];
     Abar.noalias() -= out->Y.middleCols<kL>(kL * leg) * B_l.transpose();
   }
-  out->llt_Abar.compute(Abar);
-  if (out->llt_Abar.info() != Eigen::Success) return FactorStatus::kNotPositiveDefinite;
-  out->llt_A.compute(M.topLeftCorner<kB, kB>());
-  if (out->llt_A.info() != Eigen::Success) return FactorStatus::kNotPositiveDefinite;
+  Matrix6d L_Abar;
+  if (!Cholesky<kB>(Abar, &L_Abar)) return FactorStatus::kNotPositiveDefinite;
+  InverseFromCholesky<kB>(L_Abar, &out->Abar_inv);
+  if (!Cholesky<kB>(M.topLeftCorner<kB, kB>(), &out->L_A)) return FactorStatus::kNotPositiveDefinite;
   return FactorStatus::kOk;
 }
 
@@ -29,10 +76,10 @@ void SolveInPlace(const MassMatrixFactor& f, VectorV* b) {
   // x_b = D (b_b − Y b_q),   x_q = C⁻¹ b_q − Yᵀ x_b
   Vector6d rhs = b->head<kB>();
   rhs.noalias() -= f.Y * b->tail<kNumJoints>();
-  const Vector6d x_b = f.llt_Abar.solve(rhs);
+  const Vector6d x_b = f.Abar_inv * rhs;
   for (int leg = 0; leg < kNumLegs; ++leg) {
     auto b_l = b->segment<kL>(kB + kL * leg);
-    const Eigen::Vector3d c = f.llt_C[leg].solve(Eigen::Vector3d(b_l));
+    const Eigen::Vector3d c = f.C_inv[leg] * b_l;
     b_l = c - f.Y.middleCols<kL>(kL * leg).transpose() * x_b;
   }
   b->head<kB>() = x_b;
@@ -40,37 +87,19 @@ void SolveInPlace(const MassMatrixFactor& f, VectorV* b) {
 
 void ComputeMinvBlocks(const MassMatrixFactor& f, MinvBlocks* out) {
   // D = Ā⁻¹,  E = −D Y   (14)
-  out->D = f.llt_Abar.solve(Matrix6d::Identity());
+  out->D = f.Abar_inv;
   out->E.noalias() = -out->D * f.Y;
   // F = C⁻¹ + Yᵀ D Y = C⁻¹ − Yᵀ E
   out->F.noalias() = -f.Y.transpose() * out->E;
   for (int leg = 0; leg < kNumLegs; ++leg) {
     const int o = kL * leg;
-    out->F.block<kL, kL>(o, o) += f.llt_C[leg].solve(Eigen::Matrix3d::Identity());
+    out->F.block<kL, kL>(o, o) += f.C_inv[leg];
   }
 }
 
 void ComputeInverseBlocks(const MatrixV& M, const MassMatrixFactor& f, InverseBlocks* out) {
   const auto B = M.topRightCorner<kB, kNumJoints>();
-  // A⁻¹ = L⁻ᵀ L⁻¹ from A = L Lᵀ: W = L⁻¹ by forward substitution on the identity, then the
-  // lower triangle of WᵀW, mirrored (exactly symmetric; a generic triangular solve with a matrix
-  // right-hand side costs several times this on 6 × 6)
-  const Matrix6d& L = f.llt_A.matrixLLT();  // lower triangle holds L
-  Matrix6d W = Matrix6d::Zero();
-  for (int c = 0; c < kB; ++c) {
-    W(c, c) = 1.0 / L(c, c);
-    for (int r = c + 1; r < kB; ++r) {
-      double s = 0.0;
-      for (int k = c; k < r; ++k) s -= L(r, k) * W(k, c);
-      W(r, c) = s / L(r, r);
-    }
-  }
-  for (int c = 0; c < kB; ++c)
-    for (int r = c; r < kB; ++r) {
-      double s = 0.0;
-      for (int k = r; k < kB; ++k) s += W(k, r) * W(k, c);
-      out->A_inv(r, c) = out->A_inv(c, r) = s;
-    }
+  InverseFromCholesky<kB>(f.L_A, &out->A_inv);
   // A⁻¹ B, and F⁻¹ = C − Bᵀ A⁻¹ B (Schur complement of A), its lower triangle mirrored
   out->A_inv_B.noalias() = out->A_inv * B;
   for (int c = 0; c < kNumJoints; ++c) {

@@ -15,7 +15,7 @@
 #include <array>
 #include <cstdint>
 
-#include <Eigen/Cholesky>
+#include <Eigen/Core>
 
 #include "dynamics/model.h"
 
@@ -26,13 +26,15 @@ using JointMatrix = Eigen::Matrix<double, kNumJoints, kNumJoints>;
 
 enum class [[nodiscard]] FactorStatus : std::uint8_t { kOk, kNotPositiveDefinite };
 
-/// The factorisation: Cholesky of each leg's 3 × 3 block of C, Y = B C⁻¹, Cholesky of
-/// Ā = A − Y Bᵀ, and Cholesky of A.
+/// The factorisation: each leg's 3 × 3 block of C inverted through its Cholesky factor,
+/// Y = B C⁻¹, Ā⁻¹ = D through the Cholesky factor of Ā = A − Y Bᵀ, and the Cholesky factor of A.
+/// The inverses are explicit because every use applies them to several vectors or needs them
+/// as blocks (eq 14), and on 3 × 3 and 6 × 6 fixed-size products beat triangular solves.
 struct MassMatrixFactor {
-  std::array<Eigen::LLT<Eigen::Matrix3d>, kNumLegs> llt_C;
+  std::array<Eigen::Matrix3d, kNumLegs> C_inv;  // exactly symmetric
   BaseJointMatrix Y;
-  Eigen::LLT<Matrix6d> llt_Abar;
-  Eigen::LLT<Matrix6d> llt_A;
+  Matrix6d Abar_inv;  // D, exactly symmetric
+  Matrix6d L_A;       // A = L_A L_Aᵀ, lower triangle (the upper is zero)
 };
 
 /// What the contact ID uses every cycle: A⁻¹, A⁻¹B and F⁻¹ (then Z = A⁻¹R_b, E F⁻¹ = −A⁻¹B,

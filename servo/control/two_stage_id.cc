@@ -253,10 +253,8 @@ bool ProjectContactVelocity(const ContactSet& set, const dynamics::CycleDynamics
     Jv.segment<3>(3 * i).noalias() = set.J_c[i] * *v;
     S[i] = set.J_c[i].leftCols<kB>().transpose();
     S[i].noalias() -= dyn.factor.Y.middleCols<dynamics::kJointsPerLeg>(first) * Jq[i].transpose();
-    for (int c = 0; c < 3; ++c) {
-      X[i].col(c) = dyn.factor.llt_Abar.solve(dynamics::Vector6d(S[i].col(c)));
-      Xc[i].col(c) = dyn.factor.llt_C[leg].solve(Eigen::Vector3d(Jq[i].row(c).transpose()));
-    }
+    X[i].noalias() = dyn.factor.Abar_inv * S[i];
+    Xc[i].noalias() = dyn.factor.C_inv[leg] * Jq[i].transpose();
   }
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12> G(rows, rows);
   for (int i = 0; i < nc; ++i) {
@@ -268,9 +266,29 @@ bool ProjectContactVelocity(const ContactSet& set, const dynamics::CycleDynamics
       if (j != i) G.block<3, 3>(3 * j, 3 * i) = g.transpose();
     }
   }
-  Eigen::LLT<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 12, 12>> llt(G);
-  if (llt.info() != Eigen::Success) return false;
-  const Eigen::Matrix<double, Eigen::Dynamic, 1, Eigen::ColMajor, 12, 1> lam = llt.solve(Jv);
+  // λ = G⁻¹ J_c v by G = L Lᵀ in place (lower triangle; Eigen's LLT at dynamic size goes through
+  // its blocked machinery, several times the arithmetic on ≤ 12 × 12)
+  auto& lam = Jv;
+  for (int c = 0; c < rows; ++c) {
+    double d = G(c, c);
+    for (int k = 0; k < c; ++k) d -= G(c, k) * G(c, k);
+    if (!(d > 0.0)) return false;
+    const double lcc = std::sqrt(d);
+    G(c, c) = lcc;
+    for (int r = c + 1; r < rows; ++r) {
+      double s = G(r, c);
+      for (int k = 0; k < c; ++k) s -= G(r, k) * G(c, k);
+      G(r, c) = s / lcc;
+    }
+    double y = lam(c);
+    for (int k = 0; k < c; ++k) y -= G(c, k) * lam(k);
+    lam(c) = y / lcc;
+  }
+  for (int c = rows - 1; c >= 0; --c) {
+    double y = lam(c);
+    for (int k = c + 1; k < rows; ++k) y -= G(k, c) * lam(k);
+    lam(c) = y / G(c, c);
+  }
   // v −= M⁻¹ J_cᵀ λ: the base part x_b = Σ X_i λ_i; leg l: X_c,i λ_i (its own foot) − Y_lᵀ x_b
   dynamics::Vector6d x_b = dynamics::Vector6d::Zero();
   for (int i = 0; i < nc; ++i) x_b.noalias() += X[i] * lam.segment<3>(3 * i);

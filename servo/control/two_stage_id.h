@@ -42,8 +42,6 @@
 #include <limits>
 #include <optional>
 
-#include <Eigen/Cholesky>
-
 #include "dynamics/cycle_dynamics.h"
 #include "hal/config_key.h"
 #include "qp/solver.h"

@@ -212,6 +212,29 @@ TEST_F(Dynamics, FactorisationAndInverseBlocksMatchDenseInverse) {
   }
 }
 
+TEST_F(Dynamics, FactorisationRejectsEveryIndefiniteBlock) {
+  const auto st = testing::MakeRandomState(HyqModel(), &rng_);
+  const MatrixV M = Compute(st.q, st.v)->M;
+  MassMatrixFactor f;
+  ASSERT_EQ(FactorMassMatrix(M, &f), FactorStatus::kOk);
+  // a leg's joint block, the base block A and the Schur complement Ā = A − B C⁻¹ Bᵀ (A stays
+  // positive definite, but the base couples more strongly to the leg than its inertia allows),
+  // and a NaN, which no pivot test may pass
+  MatrixV leg = M;
+  leg(12, 12) = -1.0;
+  EXPECT_EQ(FactorMassMatrix(leg, &f), FactorStatus::kNotPositiveDefinite);
+  MatrixV base = M;
+  base(2, 2) = -1.0;
+  EXPECT_EQ(FactorMassMatrix(base, &f), FactorStatus::kNotPositiveDefinite);
+  MatrixV schur = M;
+  const double coupling = 2.0 * std::sqrt(M(0, 0) * M(6, 6));
+  schur(0, 6) = schur(6, 0) = coupling;
+  EXPECT_EQ(FactorMassMatrix(schur, &f), FactorStatus::kNotPositiveDefinite);
+  MatrixV nan = M;
+  nan(7, 7) = std::numeric_limits<double>::quiet_NaN();
+  EXPECT_EQ(FactorMassMatrix(nan, &f), FactorStatus::kNotPositiveDefinite);
+}
+
 TEST_F(Dynamics, IntegrateAndDifferenceAreInverse) {
   for (int s = 0; s < 20; ++s) {
     const auto st = testing::MakeRandomState(HyqModel(), &rng_);
