@@ -15,6 +15,18 @@ namespace {
 constexpr int kB = dynamics::kNumBaseDofs;
 constexpr int kJ = dynamics::kNumJoints;
 
+// m v for a matrix of fixed row count and at most a few tens of columns, as a sum of fixed-size
+// columns (Eigen's general matrix-vector kernel, which dynamic columns select, costs more than
+// the arithmetic at these sizes)
+template <class Mat, class Vec>
+Eigen::Matrix<double, Mat::RowsAtCompileTime, 1> Times(const Mat& m, const Vec& v) {
+  static_assert(Mat::RowsAtCompileTime != Eigen::Dynamic);
+  Eigen::Matrix<double, Mat::RowsAtCompileTime, 1> s =
+      Eigen::Matrix<double, Mat::RowsAtCompileTime, 1>::Zero();
+  for (Eigen::Index k = 0; k < m.cols(); ++k) s += m.col(k) * v(k);
+  return s;
+}
+
 double KineticEnergy(const dynamics::CycleDynamics& dyn, const VectorV& v) {
   return 0.5 * v.dot(dyn.M * v);
 }
@@ -213,11 +225,11 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
   // x = (F⁻¹(v*_q − k) − G z)/h,  τ = f_ID + x   (19)
   const auto z = s1_.x.head(set_.num_impulses());
   VectorJ x = dyn.inv.F_inv * (v_star_q_ - k_);
-  x.noalias() -= G_ * z;
+  x -= Times(G_, z);
   out->tau_Nm = f_id + x / h;
   // v*_b = Z z + p   (23)
   out->v_star.head<kB>() = p_;
-  out->v_star.head<kB>().noalias() += Z_ * z;
+  out->v_star.head<kB>() += Times(Z_, z);
   out->v_star.tail<kJ>() = v_star_q_;
   out->kinetic_energy_J = KineticEnergy(dyn, out->v_star);
   ImpulsesFromZ(set_, s1_.x, &out->impulses);
@@ -432,7 +444,7 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
   // directions touches only its contact's r tangent columns of G
   const int r = set_.tangents;
   GP_.resize(kJ, null_dim_);
-  for (int c = 0; c < internal_cols_; ++c) GP_.col(c).noalias() = G_ * P.col(c);
+  for (int c = 0; c < internal_cols_; ++c) GP_.col(c) = Times(G_, P.col(c));
   for (int c = internal_cols_; c < null_dim_; ++c) {
     const int first = set_.TangentIndex(cancel_contact_[c - internal_cols_], 0);
     VectorJ col = G_.col(first) * P(first, c);
@@ -481,7 +493,7 @@ bool TwoStageId::RunStage2(double h, IdOutput* out) noexcept {
   }
   // z_II = z + P w,  τ_II = τ_I − G P w / h; v* (and so the kinetic energy) is unchanged
   const auto w = s2_.x.head(null_dim_);
-  out->tau_Nm.noalias() -= GP_ * w / h;
+  out->tau_Nm -= Times(GP_, w) / h;
   qp::VectorN z2 = z;
   z2.noalias() += P * w;
   ImpulsesFromZ(set_, z2, &out->impulses);
