@@ -27,38 +27,53 @@ class PivotedQr {
     qr_ = a;
     rows_ = static_cast<int>(a.rows());
     size_ = std::min(rows_, kCols);
+    // plain loops over the column-major storage (leading dimension rows_): at these sizes
+    // Eigen's dynamic-size segment reductions cost more than the arithmetic
+    double* q = qr_.data();
+    const int m = rows_;
+    // squared norms of the columns below row k, downdated after each reflection and computed
+    // afresh when cancellation has eaten half the digits (LAPACK's xGEQP3, as Eigen does)
+    std::array<double, kCols> norm2, norm2_direct;
+    for (int j = 0; j < kCols; ++j) norm2[j] = norm2_direct[j] = SquaredNorm(q + j * m, m);
+    constexpr double kRecompute = 1.4901161193847656e-08;  // √ε
     double max_pivot = 0.0;
     for (int k = 0; k < size_; ++k) {
       // the column with the largest norm below row k goes first
       int best = k;
-      double best_norm2 = -1.0;
-      for (int j = k; j < kCols; ++j) {
-        const double n2 = qr_.col(j).segment(k, rows_ - k).squaredNorm();
-        if (n2 > best_norm2) best_norm2 = n2, best = j;
+      for (int j = k + 1; j < kCols; ++j)
+        if (norm2[j] > norm2[best]) best = j;
+      double* ck = q + k * m;
+      if (best != k) {
+        std::swap_ranges(ck, ck + m, q + best * m);
+        std::swap(norm2[k], norm2[best]);
+        std::swap(norm2_direct[k], norm2_direct[best]);
       }
-      if (best != k) qr_.col(k).swap(qr_.col(best));
       // the reflector that maps column k's part below row k onto β e_k
-      const double c0 = qr_(k, k);
-      const double tail2 = qr_.col(k).segment(k + 1, rows_ - k - 1).squaredNorm();
+      const double c0 = ck[k];
+      const double tail2 = SquaredNorm(ck + k + 1, m - k - 1);
       double beta = c0;
       tau_[k] = 0.0;
       if (tail2 > std::numeric_limits<double>::min()) {
         beta = std::sqrt(c0 * c0 + tail2);
         if (c0 >= 0.0) beta = -beta;
         const double scale = 1.0 / (c0 - beta);
-        for (int i = k + 1; i < rows_; ++i) qr_(i, k) *= scale;
+        for (int i = k + 1; i < m; ++i) ck[i] *= scale;
         tau_[k] = (beta - c0) / beta;
       } else {
-        for (int i = k + 1; i < rows_; ++i) qr_(i, k) = 0.0;
+        for (int i = k + 1; i < m; ++i) ck[i] = 0.0;
       }
-      qr_(k, k) = beta;
+      ck[k] = beta;
       max_pivot = std::max(max_pivot, std::abs(beta));
       for (int j = k + 1; j < kCols; ++j) {
-        double w = qr_(k, j);
-        for (int i = k + 1; i < rows_; ++i) w += qr_(i, k) * qr_(i, j);
+        double* cj = q + j * m;
+        double w = cj[k];
+        for (int i = k + 1; i < m; ++i) w += ck[i] * cj[i];
         w *= tau_[k];
-        qr_(k, j) -= w;
-        for (int i = k + 1; i < rows_; ++i) qr_(i, j) -= w * qr_(i, k);
+        cj[k] -= w;
+        for (int i = k + 1; i < m; ++i) cj[i] -= w * ck[i];
+        norm2[j] -= cj[k] * cj[k];
+        if (!(norm2[j] > kRecompute * norm2_direct[j]))
+          norm2[j] = norm2_direct[j] = SquaredNorm(cj + k + 1, m - k - 1);
       }
     }
     rank_ = 0;
@@ -82,6 +97,12 @@ class PivotedQr {
   }
 
  private:
+  static double SquaredNorm(const double* x, int n) noexcept {
+    double s = 0.0;
+    for (int i = 0; i < n; ++i) s += x[i] * x[i];
+    return s;
+  }
+
   template <class Vec>
   void Reflect(int k, Vec& x) const noexcept {
     double w = x(k);
