@@ -45,14 +45,14 @@ struct Workspace {
   std::array<double, kMaxRows> lo{}, hi{};
   std::array<std::uint8_t, kMaxRows> is_eq{};
 
-  // H + eps I = L Lᵀ, L lower triangular, stored row-major: L(i, k) = chol[i * kN + k]
+  // H + eps I = L Lᵀ, L lower triangular, column-major: L(i, k) = chol[i + k * kN] (only
+  // FactorHessian's scratch: the solver uses L⁻¹)
   std::array<double, kN * kN> chol{};
-  // L⁻¹ (lower triangular, row-major: linv[i * kN + j] = (L⁻¹)(i, j)) and 1 / L(i, i): with the
-  // inverse, L⁻¹ c and L⁻ᵀ c are matrix-vector products whose rows are independent, instead of
-  // triangular solves whose every step waits for the previous one
+  // L⁻¹ (lower triangular, row-major: linv[i * kN + j] = (L⁻¹)(i, j)): with the inverse, L⁻¹ c
+  // and L⁻ᵀ c are matrix-vector products whose rows are independent, instead of triangular
+  // solves whose every step waits for the previous one
   std::array<double, kN * kN> linv{};
   std::array<double, kN * kN> linvt{};  // the same transposed: linvt[j * kN + i] = (L⁻¹)(i, j)
-  std::array<double, kN> chol_inv_diag{};
   // 1 / (1 + |bound|) per row and side, to rank violations without dividing
   // (kept from solve to solve, recomputed for a bound that changed: initially all bounds 0)
   std::array<double, kMaxRows> lo_scale = Filled(1.0), hi_scale = Filled(1.0);
