@@ -554,10 +554,7 @@ void ComputeStep(Workspace* ws) noexcept {
   // C δ = [δ; A δ]
   double* cd = ws->cdelta.data();
   for (int k = 0; k < n; ++k) cd[k] = delta[k];
-  const int m = ws->m;
-  double* ad = cd + n;
-  for (int i = 0; i < m; ++i) ad[i] = 0.0;
-  if (m > 0) MultiplyA(*ws->problem, delta, ad);
+  MultiplyA(*ws->problem, delta, cd + n);
 }
 
 double RefineOnWorkingSet(Workspace* ws) noexcept {

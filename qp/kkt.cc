@@ -65,13 +65,8 @@ KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const V
   const int n = p.n(), m = p.m();
   const double* H = p.H.data();
   const double* A = p.A.data();
-  // A x column by column (contiguous), then everything in one pass per row
-  for (int k = 0; k < m; ++k) ax[k] = 0.0;
-  for (int j = 0; j < n; ++j) {
-    const double xj = x(j);
-    const double* col = A + j * m;
-    for (int k = 0; k < m; ++k) ax[k] += col[k] * xj;
-  }
+  // A x four columns per pass (contiguous), then everything in one pass per row
+  MultiplyA(p, x.data(), ax);
   double hx_max = 0, g_max = 0, yb_max = 0, aty_max = 0, stat = 0, x_max = 0;
   for (int i = 0; i < n; ++i) {
     // row i of H is its column i (H symmetric); Aᵀy takes column i of A: both contiguous
