@@ -27,10 +27,41 @@ class PivotedQr {
     qr_ = a;
     rows_ = static_cast<int>(a.rows());
     size_ = std::min(rows_, kCols);
-    // plain loops over the column-major storage (leading dimension rows_): at these sizes
-    // Eigen's dynamic-size segment reductions cost more than the arithmetic
+    // the contact ID's matrices have three rows per foot: those sizes compiled with the row
+    // count known (the short loops lose their remainder handling), any other at run time
+    switch (rows_) {
+      case 3: return Factor<std::min(3, kRows)>(threshold);
+      case 6: return Factor<std::min(6, kRows)>(threshold);
+      case 9: return Factor<std::min(9, kRows)>(threshold);
+      case 12: return Factor<std::min(12, kRows)>(threshold);
+      default: return Factor<0>(threshold);
+    }
+  }
+
+  int rank() const noexcept { return rank_; }
+  int rows() const noexcept { return rows_; }
+  /// The number of reflectors (min(rows, kCols)).
+  int size() const noexcept { return size_; }
+
+  /// x ← Qᵀ x with the first `count` reflectors (x has rows() entries).
+  template <class Vec>
+  void ApplyQt(Vec&& x, int count) const noexcept {
+    for (int k = 0; k < count; ++k) Reflect(k, x);
+  }
+  /// x ← Q x with the first `count` reflectors.
+  template <class Vec>
+  void ApplyQ(Vec&& x, int count) const noexcept {
+    for (int k = count - 1; k >= 0; --k) Reflect(k, x);
+  }
+
+ private:
+  // Householder QR with column pivoting of qr_ (rows_ × kCols, column-major with leading
+  // dimension rows_) in place; R = rows_ when R > 0 (a case label above kRows cannot match). Plain loops over the storage: at these
+  // sizes Eigen's dynamic-size segment reductions cost more than the arithmetic.
+  template <int R>
+  void Factor(double threshold) noexcept {
     double* q = qr_.data();
-    const int m = rows_;
+    const int m = R > 0 ? R : rows_;
     // squared norms of the columns below row k, downdated after each reflection and computed
     // afresh when cancellation has eaten half the digits (LAPACK's xGEQP3, as Eigen does)
     std::array<double, kCols> norm2, norm2_direct;
@@ -80,23 +111,6 @@ class PivotedQr {
     for (int i = 0; i < size_; ++i) rank_ += std::abs(qr_(i, i)) > threshold * max_pivot;
   }
 
-  int rank() const noexcept { return rank_; }
-  int rows() const noexcept { return rows_; }
-  /// The number of reflectors (min(rows, kCols)).
-  int size() const noexcept { return size_; }
-
-  /// x ← Qᵀ x with the first `count` reflectors (x has rows() entries).
-  template <class Vec>
-  void ApplyQt(Vec&& x, int count) const noexcept {
-    for (int k = 0; k < count; ++k) Reflect(k, x);
-  }
-  /// x ← Q x with the first `count` reflectors.
-  template <class Vec>
-  void ApplyQ(Vec&& x, int count) const noexcept {
-    for (int k = count - 1; k >= 0; --k) Reflect(k, x);
-  }
-
- private:
   static double SquaredNorm(const double* x, int n) noexcept {
     double s = 0.0;
     for (int i = 0; i < n; ++i) s += x[i] * x[i];
