@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <type_traits>
 #include <utility>
 
 namespace hyq::qp::internal {
@@ -14,25 +15,53 @@ constexpr int kMaxDependentEntries = 2;
 constexpr double kCertificateTolerance = 1e-12;
 constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
 
+// The problem size: N when the caller was compiled for it (N > 0), else the run-time n. The hot
+// functions below are instantiated for the sizes the contact ID produces (WithSize) and once for
+// any size: with n known at compile time their short loops lose the vectorisation prologues and
+// remainder branches (5–10 % of a solve, the same arithmetic in the same order).
+template <int N>
+int Size(const Workspace& ws) {
+  return N > 0 ? N : ws.n;
+}
+
+// f(std::integral_constant<int, n>) for the sizes the contact ID's QPs take (Stage I: 5 unknowns
+// per stance foot; Stage II: the dimension of Stage I's null space, 5, 9 and 14 with two, three
+// and four stance feet, none frictionless), else f(std::integral_constant<int, 0>), the run-time instance
+template <class F>
+decltype(auto) WithSize(int n, F&& f) {
+  switch (n) {
+    case 5: return f(std::integral_constant<int, 5>{});
+    case 9: return f(std::integral_constant<int, 9>{});
+    case 10: return f(std::integral_constant<int, 10>{});
+    case 14: return f(std::integral_constant<int, 14>{});
+    case 15: return f(std::integral_constant<int, 15>{});
+    case 20: return f(std::integral_constant<int, 20>{});
+    default: return f(std::integral_constant<int, 0>{});
+  }
+}
+
 // z = L⁻¹ z in place, z zero above `first`: rows of L⁻¹ times z, each independent
+template <int N>
 void ForwardChol(const Workspace& ws, double* z, int first) {
   double t[kN];
-  const int n = ws.n;
+  const int n = Size<N>(ws);
   for (int i = first; i < n; ++i) t[i] = z[i];
   for (int i = first; i < n; ++i) z[i] = Dot(&ws.linv[i * kN] + first, t + first, i - first + 1);
 }
 
 // z = L⁻ᵀ z in place: z_j = (column j of L⁻¹)ᵀ z, each independent
+template <int N>
 void BackwardChol(const Workspace& ws, double* z) {
   double t[kN];
-  const int n = ws.n;
+  const int n = Size<N>(ws);
   for (int i = 0; i < n; ++i) t[i] = z[i];
   for (int j = 0; j < n; ++j) z[j] = Dot(&ws.linvt[j * kN] + j, t + j, n - j);
 }
 
 // m = L⁻¹ C_rowᵀ: a bound row is e_i, so m is zero above i
+template <int N>
 void RowVector(const Workspace& ws, int row, double* m) {
-  const int n = ws.n;
+  const int n = Size<N>(ws);
   if (row < n) {
     // L⁻¹ e_row is column `row` of L⁻¹, i.e. row `row` of its transpose (contiguous)
     for (int j = 0; j < row; ++j) m[j] = 0.0;
@@ -41,26 +70,30 @@ void RowVector(const Workspace& ws, int row, double* m) {
   } else {
     const Problem& p = *ws.problem;
     for (int j = 0; j < n; ++j) m[j] = p.A(row - n, j);
-    ForwardChol(ws, m, 0);
+    ForwardChol<N>(ws, m, 0);
   }
 }
 
 // m_row is zero before this entry: a bound row's m is column `row` of L⁻¹ (lower triangular),
 // a row of A's is dense. Products with m start there.
-int FirstNonZero(const Workspace& ws, int row) { return row < ws.n ? row : 0; }
+template <int N = 0>
+int FirstNonZero(const Workspace& ws, int row) { return row < Size<N>(ws) ? row : 0; }
 
 double SideBound(const Workspace& ws, int row, int sign) {
   return sign > 0 ? ws.hi[row] : ws.lo[row];
 }
 
 // signed right-hand side of (2): d = s (b_s − C_row x_k + m_rowᵀ v)
+template <int N>
 double RightHandSide(const Workspace& ws, int row, int sign, const double* m) {
-  const int f = FirstNonZero(ws, row);
-  return sign * (SideBound(ws, row, sign) - ws.cx[row] + Dot(m + f, ws.v.data() + f, ws.n - f));
+  const int f = FirstNonZero<N>(ws, row);
+  return sign *
+         (SideBound(ws, row, sign) - ws.cx[row] + Dot(m + f, ws.v.data() + f, Size<N>(ws) - f));
 }
 
 // Lw Dw Lwᵀ without position j: the rows below j get the rank-one term Dw_j l lᵀ back, l being
 // column j of Lw below the diagonal [Gill et al. 1974, C1]; then every array closes the gap.
+template <int N>
 void Remove(Workspace* ws, int j) {
   const int nw = ws->nw;
   const int removed = ws->w_row[j];
@@ -95,7 +128,7 @@ void Remove(Workspace* ws, int j) {
     ws->d[r - 1] = ws->d[r];
     const double* msrc = &ws->mw[r * kN];
     double* mdst = &ws->mw[(r - 1) * kN];
-    for (int k = 0; k < ws->n; ++k) mdst[k] = msrc[k];
+    for (int k = 0; k < Size<N>(*ws); ++k) mdst[k] = msrc[k];
   }
   ws->pos_of[removed] = -1;
   ws->nw = nw - 1;
@@ -106,15 +139,16 @@ void Remove(Workspace* ws, int j) {
 //   Lw r = k, k_p = s_p s m_pᵀ m,  l = Dw⁻¹ r,  pivot = mᵀm − rᵀ l                     (4)
 // A pivot at or below tol·mᵀm means s m = Σ c_p s_p m_p with c = Lw⁻ᵀ l: returns false and
 // leaves c in ws->tmp2 (W unchanged).
+template <int N>
 bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
-  const int n = ws->n, nw = ws->nw;
+  const int n = Size<N>(*ws), nw = ws->nw;
   const double* m = ws->mnew.data();
   double* r = ws->tmp.data();
   double* l = ws->tmp2.data();
-  const int first = FirstNonZero(*ws, row);
+  const int first = FirstNonZero<N>(*ws, row);
   const double mm = Dot(m + first, m + first, n - first);
   for (int p = 0; p < nw; ++p) {
-    const int f = std::max(first, FirstNonZero(*ws, ws->w_row[p]));
+    const int f = std::max(first, FirstNonZero<N>(*ws, ws->w_row[p]));
     r[p] = ws->w_sign[p] * sign * Dot(&ws->mw[p * kN] + f, m + f, n - f);
   }
   double pivot = mm;
@@ -135,7 +169,7 @@ bool TryAppend(Workspace* ws, int row, int sign, double lambda, double tol) {
     ws->w_row[nw] = row;
     ws->w_sign[nw] = static_cast<std::int8_t>(sign);
     ws->lambda[nw] = lambda;
-    ws->d[nw] = RightHandSide(*ws, row, sign, m);
+    ws->d[nw] = RightHandSide<N>(*ws, row, sign, m);
     ws->pos_of[row] = nw;
     ws->nw = nw + 1;
     return true;
@@ -162,7 +196,7 @@ void RefineCertificate(Workspace* ws) {
     if (w == 0.0) continue;
     for (int j = 0; j < n; ++j) r[j] += p.A(k, j) * w;
   }
-  ForwardChol(*ws, r, 0);
+  ForwardChol<0>(*ws, r, 0);
   double* y = ws->kvec.data();
   for (int q = 0; q < nw; ++q) {
     const double* Lq = &ws->lw[q * kN];
@@ -339,14 +373,15 @@ bool OutOfBudget(const InnerLimits& limits, int iterations, InnerStatus* status)
 // refined) stays valid; kSkipped: left out after W changed (blocking rows removed, rebuild).
 enum class EnterResult { kEntered, kSkipped, kSkippedInPlace, kStop };
 
+template <int N>
 EnterResult Enter(Workspace* ws, int row, int sign, double violation, const InnerLimits& limits,
                   int* iterations, InnerStatus* status) {
-  RowVector(*ws, row, ws->mnew.data());
+  RowVector<N>(*ws, row, ws->mnew.data());
   double lambda_new = 0.0;
   bool rebuilt = false;
   bool changed = false;  // W or λ modified (then the step must be recomputed)
   for (;;) {
-    if (TryAppend(ws, row, sign, lambda_new, limits.dependence_tolerance))
+    if (TryAppend<N>(ws, row, sign, lambda_new, limits.dependence_tolerance))
       return EnterResult::kEntered;
     // a row that keeps entering dependent on W at a degenerate vertex, with a violation that no
     // longer shrinks, swaps with another forever (its violation is rounding when cond(H + εI) is
@@ -393,7 +428,7 @@ EnterResult Enter(Workspace* ws, int row, int sign, double violation, const Inne
       // above rounding but below the tolerance): the certificate does not close, so the row
       // enters after all and the iteration goes on to find one that does
       if (CertificateResidual(*ws) > kCertificateTolerance) {
-        if (ws->nw < ws->n && TryAppend(ws, row, sign, lambda_new, 0.0))
+        if (ws->nw < ws->n && TryAppend<N>(ws, row, sign, lambda_new, 0.0))
           return EnterResult::kEntered;
         // or a rounding-size positive c_p was left out of the ratio test: let it block
         for (int p = 0; p < ws->nw; ++p) {
@@ -408,7 +443,7 @@ EnterResult Enter(Workspace* ws, int row, int sign, double violation, const Inne
         // infeasibility the certificate does not prove (the outer KKT check still sees it)
         if (!rebuilt) {
           RebuildWorkingSet(ws, limits.dependence_tolerance);
-          RowVector(*ws, row, ws->mnew.data());
+          RowVector<N>(*ws, row, ws->mnew.data());
           rebuilt = true;
           changed = true;
           continue;
@@ -433,7 +468,7 @@ EnterResult Enter(Workspace* ws, int row, int sign, double violation, const Inne
     for (int p = 0; p < ws->nw; ++p) ws->lambda[p] -= alpha * c[p];
     ws->lambda[j] = 0.0;
     lambda_new += alpha;
-    Remove(ws, j);
+    Remove<N>(ws, j);
     changed = true;
     ++*iterations;
     if (OutOfBudget(limits, *iterations, status)) return EnterResult::kStop;
@@ -444,14 +479,11 @@ EnterResult Enter(Workspace* ws, int row, int sign, double violation, const Inne
 
 namespace {
 
-// H + εI = L Lᵀ and X = L⁻¹ for n = N, or for n = ws->n when N = 0. The ID's problems have
-// 5 to 20 unknowns; with the size known at compile time the short inner loops lose their
-// vectorisation prologues and remainder branches (a fifth of this function's time, same
-// arithmetic and the same results bit for bit).
+// H + εI = L Lᵀ and X = L⁻¹ for n = Size<N>.
 template <int N>
 bool Factor(Workspace* ws, double eps, double relative_floor) noexcept {
   const Problem& p = *ws->problem;
-  const int n = N > 0 ? N : ws->n;
+  const int n = Size<N>(*ws);
   const double* h = p.H.data();
   double* L = ws->chol.data();   // column-major, L(i, k) = L[i + k * kN]
   double* X = ws->linv.data();   // X = L⁻¹, row-major
@@ -488,20 +520,12 @@ bool Factor(Workspace* ws, double eps, double relative_floor) noexcept {
   return true;
 }
 
-constexpr int kMaxFixedSize = 24;
-using FactorFunction = bool (*)(Workspace*, double, double) noexcept;
-
-template <int... I>
-constexpr std::array<FactorFunction, sizeof...(I)> FactorTable(std::integer_sequence<int, I...>) {
-  return {&Factor<I>...};  // entry 0 is the run-time size
-}
-constexpr auto kFactor = FactorTable(std::make_integer_sequence<int, kMaxFixedSize + 1>{});
-
 }  // namespace
 
 bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   const int n = ws->n;
-  if (!kFactor[n <= kMaxFixedSize ? n : 0](ws, eps, relative_floor)) return false;
+  if (!WithSize(n, [&](auto size) { return Factor<size()>(ws, eps, relative_floor); }))
+    return false;
   if (relative_floor <= 0.0) return true;
   // pivots can stay well above λ_min(H) (by 1/v_n² for a null vector v): the test that counts is
   // 1/λ_min = ‖L⁻¹‖₂² ≤ ‖L⁻¹‖_F² ≤ n/λ_min, i.e. reject when max H_ii ‖L⁻¹‖_F² > 1/floor
@@ -511,21 +535,24 @@ bool FactorHessian(Workspace* ws, double eps, double relative_floor) noexcept {
   return ws->hmax * frobenius2 * relative_floor <= 1.0;
 }
 
-void RefreshRightHandSides(Workspace* ws) noexcept {
+namespace {
+
+template <int N>
+void RefreshRightHandSidesN(Workspace* ws) noexcept {
   for (int p = 0; p < ws->nw; ++p)
-    ws->d[p] = RightHandSide(*ws, ws->w_row[p], ws->w_sign[p], &ws->mw[p * kN]);
+    ws->d[p] = RightHandSide<N>(*ws, ws->w_row[p], ws->w_sign[p], &ws->mw[p * kN]);
 }
 
-void RemoveFromWorkingSet(Workspace* ws, int j) noexcept { Remove(ws, j); }
-
-bool AppendIfIndependent(Workspace* ws, int row, int sign, double lambda,
-                         double dependence_tolerance) noexcept {
+template <int N>
+bool AppendIfIndependentN(Workspace* ws, int row, int sign, double lambda,
+                          double dependence_tolerance) noexcept {
   if (ws->pos_of[row] >= 0) return false;
-  RowVector(*ws, row, ws->mnew.data());
-  return TryAppend(ws, row, sign, lambda, dependence_tolerance);
+  RowVector<N>(*ws, row, ws->mnew.data());
+  return TryAppend<N>(ws, row, sign, lambda, dependence_tolerance);
 }
 
-void RebuildWorkingSet(Workspace* ws, double dependence_tolerance) noexcept {
+template <int N>
+void RebuildWorkingSetN(Workspace* ws, double dependence_tolerance) noexcept {
   const int nw = ws->nw;
   std::array<int, kN> rows = ws->w_row;
   std::array<std::int8_t, kN> signs = ws->w_sign;
@@ -533,11 +560,12 @@ void RebuildWorkingSet(Workspace* ws, double dependence_tolerance) noexcept {
   for (int p = 0; p < nw; ++p) ws->pos_of[rows[p]] = -1;
   ws->nw = 0;
   for (int p = 0; p < nw; ++p)
-    AppendIfIndependent(ws, rows[p], signs[p], lambdas[p], dependence_tolerance);
+    AppendIfIndependentN<N>(ws, rows[p], signs[p], lambdas[p], dependence_tolerance);
 }
 
-void ComputeStep(Workspace* ws) noexcept {
-  const int n = ws->n;
+template <int N>
+void ComputeStepN(Workspace* ws) noexcept {
+  const int n = Size<N>(*ws);
   double* u = ws->u.data();
   for (int k = 0; k < n; ++k) u[k] = 0.0;
   // u = −M_Wᵀ λ   (3)
@@ -545,16 +573,39 @@ void ComputeStep(Workspace* ws) noexcept {
     const double a = -ws->w_sign[p] * ws->lambda[p];
     if (a == 0.0) continue;
     const double* mp = &ws->mw[p * kN];
-    for (int k = FirstNonZero(*ws, ws->w_row[p]); k < n; ++k) u[k] += a * mp[k];
+    for (int k = FirstNonZero<N>(*ws, ws->w_row[p]); k < n; ++k) u[k] += a * mp[k];
   }
   // δ = L⁻ᵀ (u − v)
   double* delta = ws->delta.data();
   for (int k = 0; k < n; ++k) delta[k] = u[k] - ws->v[k];
-  BackwardChol(*ws, delta);
+  BackwardChol<N>(*ws, delta);
   // C δ = [δ; A δ]
   double* cd = ws->cdelta.data();
   for (int k = 0; k < n; ++k) cd[k] = delta[k];
   MultiplyA(*ws->problem, delta, cd + n);
+}
+
+}  // namespace
+
+void RefreshRightHandSides(Workspace* ws) noexcept {
+  WithSize(ws->n, [&](auto n) { RefreshRightHandSidesN<n()>(ws); });
+}
+
+void RemoveFromWorkingSet(Workspace* ws, int j) noexcept { Remove<0>(ws, j); }
+
+bool AppendIfIndependent(Workspace* ws, int row, int sign, double lambda,
+                         double dependence_tolerance) noexcept {
+  return WithSize(ws->n, [&](auto n) {
+    return AppendIfIndependentN<n()>(ws, row, sign, lambda, dependence_tolerance);
+  });
+}
+
+void RebuildWorkingSet(Workspace* ws, double dependence_tolerance) noexcept {
+  WithSize(ws->n, [&](auto n) { RebuildWorkingSetN<n()>(ws, dependence_tolerance); });
+}
+
+void ComputeStep(Workspace* ws) noexcept {
+  WithSize(ws->n, [&](auto n) { ComputeStepN<n()>(ws); });
 }
 
 double RefineOnWorkingSet(Workspace* ws) noexcept {
@@ -579,7 +630,7 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
   double* ax = ws->cdelta.data() + n;
   if (ws->m > 0) MultiplyA(p, x, ax);
   // v' = L⁻¹ r_x; d'_p = s_p (−r_c,p + m_pᵀ v')
-  ForwardChol(*ws, rx, 0);
+  ForwardChol<0>(*ws, rx, 0);
   double* dd = ws->kvec.data();
   for (int q = 0; q < nw; ++q) {
     const int row = ws->w_row[q];
@@ -606,7 +657,7 @@ double RefineOnWorkingSet(Workspace* ws) noexcept {
     const double* mq = &ws->mw[q * kN];
     for (int i = 0; i < n; ++i) dx[i] += a * mq[i];
   }
-  BackwardChol(*ws, dx);
+  BackwardChol<0>(*ws, dx);
   double step = 0.0;
   for (int i = 0; i < n; ++i) {
     ws->delta[i] += dx[i];
@@ -625,8 +676,11 @@ void ComputeRowSteps(Workspace* ws) noexcept {
   if (ws->m > 0) MultiplyA(*ws->problem, ws->delta.data(), ws->cdelta.data() + n);
 }
 
-InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations,
-                            bool scan_first) noexcept {
+namespace {
+
+template <int N>
+InnerStatus SolveSubproblemN(Workspace* ws, const InnerLimits& limits, int* iterations,
+                             bool scan_first) noexcept {
   InnerStatus status = InnerStatus::kOptimal;
   for (int i = 0; i < ws->rows; ++i) ws->skipped[i] = ws->dependent_entries[i] = 0;
   for (bool scan_next = scan_first;;) {
@@ -657,13 +711,13 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
       if (j >= 0) {
         for (int p = 0; p < nw; ++p) ws->lambda[p] += alpha * (ls[p] - ws->lambda[p]);
         ws->lambda[j] = 0.0;
-        Remove(ws, j);
+        Remove<N>(ws, j);
         ++*iterations;
         if (OutOfBudget(limits, *iterations, &status)) return status;
         continue;
       }
       for (int p = 0; p < nw; ++p) ws->lambda[p] = ls[p];
-      ComputeStep(ws);
+      ComputeStepN<N>(ws);
     }
     // primal step: the most violated row (relative to its bound) enters; branch-free scan over
     // bounds clamped to ±1e300 (an infinite side is never violated), W and skipped rows masked
@@ -686,7 +740,7 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
     }
     if (enter < 0) return InnerStatus::kOptimal;
     const EnterResult entered =
-        Enter(ws, enter, enter_sign, worst, limits, iterations, &status);
+        Enter<N>(ws, enter, enter_sign, worst, limits, iterations, &status);
     if (entered == EnterResult::kStop) return status;
     if (entered == EnterResult::kSkipped) continue;
     // nothing changed: go on scanning the same step (recomputing it from λ would also throw
@@ -698,6 +752,15 @@ InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* itera
     ++*iterations;
     if (OutOfBudget(limits, *iterations, &status)) return status;
   }
+}
+
+}  // namespace
+
+InnerStatus SolveSubproblem(Workspace* ws, const InnerLimits& limits, int* iterations,
+                            bool scan_first) noexcept {
+  return WithSize(ws->n, [&](auto n) {
+    return SolveSubproblemN<n()>(ws, limits, iterations, scan_first);
+  });
 }
 
 }  // namespace hyq::qp::internal
