@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <type_traits>
 #include <utility>
 
 namespace hyq::qp::internal {
@@ -14,31 +13,6 @@ constexpr int kMaxDependentEntries = 2;
 // A Farkas certificate is accepted when ‖Cᵀ w‖ is below this (relative, see CertificateResidual).
 constexpr double kCertificateTolerance = 1e-12;
 constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
-
-// The problem size: N when the caller was compiled for it (N > 0), else the run-time n. The hot
-// functions below are instantiated for the sizes the contact ID produces (WithSize) and once for
-// any size: with n known at compile time their short loops lose the vectorisation prologues and
-// remainder branches (5–10 % of a solve, the same arithmetic in the same order).
-template <int N>
-int Size(const Workspace& ws) {
-  return N > 0 ? N : ws.n;
-}
-
-// f(std::integral_constant<int, n>) for the sizes the contact ID's QPs take (Stage I: 5 unknowns
-// per stance foot; Stage II: the dimension of Stage I's null space, 5, 9 and 14 with two, three
-// and four stance feet, none frictionless), else f(std::integral_constant<int, 0>), the run-time instance
-template <class F>
-decltype(auto) WithSize(int n, F&& f) {
-  switch (n) {
-    case 5: return f(std::integral_constant<int, 5>{});
-    case 9: return f(std::integral_constant<int, 9>{});
-    case 10: return f(std::integral_constant<int, 10>{});
-    case 14: return f(std::integral_constant<int, 14>{});
-    case 15: return f(std::integral_constant<int, 15>{});
-    case 20: return f(std::integral_constant<int, 20>{});
-    default: return f(std::integral_constant<int, 0>{});
-  }
-}
 
 // z = L⁻¹ z in place, z zero above `first`: rows of L⁻¹ times z, each independent
 template <int N>
@@ -582,7 +556,7 @@ void ComputeStepN(Workspace* ws) noexcept {
   // C δ = [δ; A δ]
   double* cd = ws->cdelta.data();
   for (int k = 0; k < n; ++k) cd[k] = delta[k];
-  MultiplyA(*ws->problem, delta, cd + n);
+  MultiplyA<N>(*ws->problem, delta, cd + n);
 }
 
 }  // namespace

@@ -59,14 +59,16 @@ KktResiduals ComputeKktResiduals(const Problem& p, const VectorN& x, const Vecto
 
 namespace internal {
 
-KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const VectorN& y_bounds,
-                                     const VectorM& y_constraints, double* hx_out,
-                                     double* ax) noexcept {
-  const int n = p.n(), m = p.m();
+namespace {
+
+template <int N>
+KktResiduals Residuals(const Problem& p, const VectorN& x, const VectorN& y_bounds,
+                       const VectorM& y_constraints, double* hx_out, double* ax) noexcept {
+  const int n = N > 0 ? N : p.n(), m = p.m();
   const double* H = p.H.data();
   const double* A = p.A.data();
   // A x four columns per pass (contiguous), then everything in one pass per row
-  MultiplyA(p, x.data(), ax);
+  MultiplyA<N>(p, x.data(), ax);
   double hx_max = 0, g_max = 0, yb_max = 0, aty_max = 0, stat = 0, x_max = 0;
   for (int i = 0; i < n; ++i) {
     // row i of H is its column i (H symmetric); Aᵀy takes column i of A: both contiguous
@@ -105,6 +107,16 @@ KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const V
   r.dual = dual / std::max(1.0, y_max);
   r.complementarity = compl_ / (std::max(1.0, y_max) * value_scale);
   return r;
+}
+
+}  // namespace
+
+KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const VectorN& y_bounds,
+                                     const VectorM& y_constraints, double* hx_out,
+                                     double* ax) noexcept {
+  return WithSize(p.n(), [&](auto n) {
+    return Residuals<n()>(p, x, y_bounds, y_constraints, hx_out, ax);
+  });
 }
 
 }  // namespace internal

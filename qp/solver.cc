@@ -34,9 +34,10 @@ double MaxAbs(const double* a, int n) {
 
 // cx = C x_k, q = H x_k + g, v = L⁻¹ q; H x_k and A x_k from the last KKT check when it was
 // made at x_k (ws->products_valid)
-void Linearise(Workspace* ws) {
+template <int N>
+void LineariseN(Workspace* ws) {
   const Problem& p = *ws->problem;
-  const int n = ws->n, m = ws->m;
+  const int n = internal::Size<N>(*ws), m = ws->m;
   for (int i = 0; i < n; ++i) ws->cx[i] = ws->xk[i];
   if (ws->products_valid) {
     for (int i = 0; i < n; ++i) ws->q[i] = p.g(i) + ws->kkt_hx[i];
@@ -44,10 +45,14 @@ void Linearise(Workspace* ws) {
   } else {
     for (int i = 0; i < n; ++i)
       ws->q[i] = p.g(i) + internal::Dot(p.H.data() + i * n, ws->xk.data(), n);
-    internal::MultiplyA(p, ws->xk.data(), ws->cx.data() + n);
+    internal::MultiplyA<N>(p, ws->xk.data(), ws->cx.data() + n);
   }
   ws->products_valid = false;
   for (int i = 0; i < n; ++i) ws->v[i] = internal::Dot(&ws->linv[i * kN], ws->q.data(), i + 1);
+}
+
+void Linearise(Workspace* ws) {
+  internal::WithSize(ws->n, [&](auto n) { LineariseN<n()>(ws); });
 }
 
 // the KKT residuals of the iterate WriteIterate left in *sol, keeping H x and A x for Linearise

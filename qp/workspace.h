@@ -7,6 +7,7 @@
 
 #include <array>
 #include <cstdint>
+#include <type_traits>
 
 #include "qp/problem.h"
 
@@ -101,15 +102,41 @@ struct Workspace {
   std::array<double, kMaxRows> warm_y{};
 };
 
+// The problem size: N when the caller was compiled for it (N > 0), else the run-time n. The
+// solver's hot functions are instantiated for the sizes the contact ID produces (WithSize) and
+// once for any size: with n known at compile time their short loops lose the vectorisation
+// prologues and remainder branches (5–10 % of a solve, the same arithmetic in the same order).
+template <int N>
+inline int Size(const Workspace& ws) {
+  return N > 0 ? N : ws.n;
+}
+
+// f(std::integral_constant<int, n>) for the sizes the contact ID's QPs take (Stage I: 5 unknowns
+// per stance foot; Stage II: the dimension of Stage I's null space, 5, 9 and 14 with two, three
+// and four stance feet, none frictionless), else f(std::integral_constant<int, 0>), the run-time instance
+template <class F>
+inline decltype(auto) WithSize(int n, F&& f) {
+  switch (n) {
+    case 5: return f(std::integral_constant<int, 5>{});
+    case 9: return f(std::integral_constant<int, 9>{});
+    case 10: return f(std::integral_constant<int, 10>{});
+    case 14: return f(std::integral_constant<int, 14>{});
+    case 15: return f(std::integral_constant<int, 15>{});
+    case 20: return f(std::integral_constant<int, 20>{});
+    default: return f(std::integral_constant<int, 0>{});
+  }
+}
+
 /// ComputeKktResiduals that also leaves H x (n entries) in hx and A x (m entries) in ax, for the
 /// next proximal centre x_k = x (Linearise then needs no products of its own).
 KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const VectorN& y_bounds,
                                      const VectorM& y_constraints, double* hx,
                                      double* ax) noexcept;
 
-/// out = A x (m entries, overwritten), four columns of A per pass over out.
+/// out = A x (m entries, overwritten), four columns of A per pass over out; n = N when N > 0.
+template <int N = 0>
 inline void MultiplyA(const Problem& p, const double* x, double* out) noexcept {
-  const int n = p.n(), m = p.m();
+  const int n = N > 0 ? N : p.n(), m = p.m();
   const double* a = p.A.data();
   for (int i = 0; i < m; ++i) out[i] = 0.0;
   int j = 0;
