@@ -68,7 +68,8 @@ FactorStatus FactorMassMatrix(const MatrixV& M, MassMatrixFactor* out) {
   Matrix6d L_Abar;
   if (!Cholesky<kB>(Abar, &L_Abar)) return FactorStatus::kNotPositiveDefinite;
   InverseFromCholesky<kB>(L_Abar, &out->Abar_inv);
-  if (!Cholesky<kB>(M.topLeftCorner<kB, kB>(), &out->L_A)) return FactorStatus::kNotPositiveDefinite;
+  if (!Cholesky<kB>(M.topLeftCorner<kB, kB>(), &out->L_A))
+    return FactorStatus::kNotPositiveDefinite;
   return FactorStatus::kOk;
 }
 

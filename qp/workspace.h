@@ -113,7 +113,8 @@ inline int Size(const Workspace& ws) {
 
 // f(std::integral_constant<int, n>) for the sizes the contact ID's QPs take (Stage I: 5 unknowns
 // per stance foot; Stage II: the dimension of Stage I's null space, 5, 9 and 14 with two, three
-// and four stance feet, none frictionless), else f(std::integral_constant<int, 0>), the run-time instance
+// and four stance feet, none frictionless), else f(std::integral_constant<int, 0>), the
+// run-time instance
 template <class F>
 inline decltype(auto) WithSize(int n, F&& f) {
   switch (n) {

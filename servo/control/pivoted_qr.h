@@ -56,8 +56,9 @@ class PivotedQr {
 
  private:
   // Householder QR with column pivoting of qr_ (rows_ × kCols, column-major with leading
-  // dimension rows_) in place; R = rows_ when R > 0 (a case label above kRows cannot match). Plain loops over the storage: at these
-  // sizes Eigen's dynamic-size segment reductions cost more than the arithmetic.
+  // dimension rows_) in place; R = rows_ when R > 0 (a case label above kRows cannot match).
+  // Plain loops over the storage: at these sizes Eigen's dynamic-size segment reductions cost
+  // more than the arithmetic.
   template <int R>
   void Factor(double threshold) noexcept {
     double* q = qr_.data();

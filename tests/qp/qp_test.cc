@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 #include <thread>
+#include <utility>
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
@@ -413,6 +414,18 @@ TEST(QpStatus, BadInput) {
   Problem p = t.problem;
   p.H(1, 2) = std::nan("");
   expect_bad(p, "NaN in H");
+  // every place a non-finite entry of H can be, alone or mirrored (the input check finds them in
+  // its symmetry pass)
+  for (const double bad : {std::nan(""), kInf, -kInf}) {
+    for (const auto& [i, j] :
+         {std::pair{0, 3}, std::pair{3, 0}, std::pair{2, 2}, std::pair{5, 5}}) {
+      p = t.problem;
+      p.H(i, j) = bad;
+      expect_bad(p, "one non-finite entry of H");
+      p.H(j, i) = bad;
+      expect_bad(p, "a mirrored pair of non-finite entries of H");
+    }
+  }
   p = t.problem;
   p.g(0) = kInf;
   expect_bad(p, "Inf in g");
