@@ -1,56 +1,11 @@
 #include "dynamics/mass_matrix_factor.h"
 
-#include <cmath>
+#include "dynamics/small_cholesky.h"
 
 namespace hyq::dynamics {
 namespace {
 constexpr int kB = kNumBaseDofs;
 constexpr int kL = kJointsPerLeg;
-
-// A = L Lᵀ for a symmetric positive-definite fixed-size A (lower triangle read), L lower
-// triangular with zeros above. False when a pivot is not positive (or NaN).
-template <int N>
-bool Cholesky(const Eigen::Matrix<double, N, N>& a, Eigen::Matrix<double, N, N>* l) {
-  Eigen::Matrix<double, N, N>& L = *l;
-  L.setZero();
-  for (int c = 0; c < N; ++c) {
-    double d = a(c, c);
-    for (int k = 0; k < c; ++k) d -= L(c, k) * L(c, k);
-    if (!(d > 0.0)) return false;
-    const double lcc = std::sqrt(d);
-    const double inv = 1.0 / lcc;
-    L(c, c) = lcc;
-    for (int r = c + 1; r < N; ++r) {
-      double s = a(r, c);
-      for (int k = 0; k < c; ++k) s -= L(r, k) * L(c, k);
-      L(r, c) = s * inv;
-    }
-  }
-  return true;
-}
-
-// A⁻¹ = L⁻ᵀ L⁻¹ from A = L Lᵀ: W = L⁻¹ by forward substitution on the identity, then the lower
-// triangle of WᵀW, mirrored (exactly symmetric; a generic triangular solve with a matrix
-// right-hand side costs several times this on 3 × 3 and 6 × 6)
-template <int N>
-void InverseFromCholesky(const Eigen::Matrix<double, N, N>& L, Eigen::Matrix<double, N, N>* out) {
-  Eigen::Matrix<double, N, N> W = Eigen::Matrix<double, N, N>::Zero();
-  for (int c = 0; c < N; ++c) {
-    W(c, c) = 1.0 / L(c, c);
-    for (int r = c + 1; r < N; ++r) {
-      double s = 0.0;
-      for (int k = c; k < r; ++k) s -= L(r, k) * W(k, c);
-      W(r, c) = s / L(r, r);
-    }
-  }
-  for (int c = 0; c < N; ++c)
-    for (int r = c; r < N; ++r) {
-      double s = 0.0;
-      for (int k = r; k < N; ++k) s += W(k, r) * W(k, c);
-      (*out)(r, c) = (*out)(c, r) = s;
-    }
-}
-
 }  // namespace
 
 FactorStatus FactorMassMatrix(const MatrixV& M, MassMatrixFactor* out) {
@@ -58,18 +13,17 @@ FactorStatus FactorMassMatrix(const MatrixV& M, MassMatrixFactor* out) {
   Matrix6d Abar = M.topLeftCorner<kB, kB>();
   for (int leg = 0; leg < kNumLegs; ++leg) {
     const int o = kB + kL * leg;
-    Eigen::Matrix3d L;
-    if (!Cholesky<kL>(M.block<kL, kL>(o, o), &L)) return FactorStatus::kNotPositiveDefinite;
+    Eigen::Matrix3d L = M.block<kL, kL>(o, o);
+    if (!CholeskyInPlace(L)) return FactorStatus::kNotPositiveDefinite;
     InverseFromCholesky<kL>(L, &out->C_inv[leg]);
     const auto B_l = M.block<kB, kL>(0, o);
     out->Y.middleCols<kL>(kL * leg).noalias() = B_l * out->C_inv[leg];
     Abar.noalias() -= out->Y.middleCols<kL>(kL * leg) * B_l.transpose();
   }
-  Matrix6d L_Abar;
-  if (!Cholesky<kB>(Abar, &L_Abar)) return FactorStatus::kNotPositiveDefinite;
-  InverseFromCholesky<kB>(L_Abar, &out->Abar_inv);
-  if (!Cholesky<kB>(M.topLeftCorner<kB, kB>(), &out->L_A))
-    return FactorStatus::kNotPositiveDefinite;
+  if (!CholeskyInPlace(Abar)) return FactorStatus::kNotPositiveDefinite;
+  InverseFromCholesky<kB>(Abar, &out->Abar_inv);
+  out->L_A = M.topLeftCorner<kB, kB>();
+  if (!CholeskyInPlace(out->L_A)) return FactorStatus::kNotPositiveDefinite;
   return FactorStatus::kOk;
 }
 

@@ -34,7 +34,7 @@ struct MassMatrixFactor {
   std::array<Eigen::Matrix3d, kNumLegs> C_inv;  // exactly symmetric
   BaseJointMatrix Y;
   Matrix6d Abar_inv;  // D, exactly symmetric
-  Matrix6d L_A;       // A = L_A L_Aᵀ, lower triangle (the upper is zero)
+  Matrix6d L_A;       // A = L_A L_Aᵀ in the lower triangle (dynamics/small_cholesky.h)
 };
 
 /// What the contact ID uses every cycle: A⁻¹, A⁻¹B and F⁻¹ (then Z = A⁻¹R_b, E F⁻¹ = −A⁻¹B,

@@ -89,20 +89,16 @@ void WriteIterate(const Workspace& ws, Solution* sol) {
   }
 }
 
-double Objective(const Problem& p, const VectorN& x) {
-  const int n = p.n();
-  double f = 0.0;
-  for (int i = 0; i < n; ++i) {
-    const double hx = internal::Dot(p.H.data() + i * n, x.data(), n);  // H symmetric
-    f += x(i) * (0.5 * hx + p.g(i));
-  }
-  return f;
-}
-
 double ObjectiveFromProducts(const Problem& p, const VectorN& x, const double* hx) {
   double f = 0.0;
   for (int i = 0; i < p.n(); ++i) f += x(i) * (0.5 * hx[i] + p.g(i));
   return f;
+}
+
+double Objective(const Problem& p, const VectorN& x) {
+  double hx[kN];
+  for (int i = 0; i < p.n(); ++i) hx[i] = internal::Dot(p.H.data() + i * p.n(), x.data(), p.n());
+  return ObjectiveFromProducts(p, x, hx);  // H symmetric: row i is column i
 }
 
 // δ / ‖δ‖ is a certificate of unboundedness: H r ≈ 0, gᵀ r < 0 and r in the recession cone.
@@ -169,25 +165,19 @@ bool IsWellFormed(const Problem& p) noexcept {
   if (!AllFinite(p.H.data(), n * n) || !AllFinite(p.g.data(), n) ||
       !AllFinite(p.A.data(), m * n))
     return false;
-  // symmetry, relative to max |H_ij|: the lower triangle's columns against the rows, in two
-  // independent chains of maxima (one chain waits on every comparison)
-  const double* h = p.H.data();
-  double hmax0 = 0.0, hmax1 = 0.0, asym0 = 0.0, asym1 = 0.0;
+  // symmetry, relative to max |H_ij|: columns against rows, independent per column
+  double hmax = 0.0, asym = 0.0;
   for (Eigen::Index j = 0; j < n; ++j) {
-    const double* col = h + j * n;
-    Eigen::Index i = j;
-    for (; i + 2 <= n; i += 2) {
-      hmax0 = std::max(hmax0, std::fabs(col[i]));
-      hmax1 = std::max(hmax1, std::fabs(col[i + 1]));
-      asym0 = std::max(asym0, std::fabs(col[i] - h[j + i * n]));
-      asym1 = std::max(asym1, std::fabs(col[i + 1] - h[j + (i + 1) * n]));
+    const double* col = p.H.data() + j * n;
+    double cmax = 0.0, amax = 0.0;
+    for (Eigen::Index i = j; i < n; ++i) {
+      cmax = std::max(cmax, std::fabs(col[i]));
+      amax = std::max(amax, std::fabs(col[i] - p.H(j, i)));
     }
-    if (i < n) {
-      hmax0 = std::max(hmax0, std::fabs(col[i]));
-      asym0 = std::max(asym0, std::fabs(col[i] - h[j + i * n]));
-    }
+    hmax = std::max(hmax, cmax);
+    asym = std::max(asym, amax);
   }
-  if (std::max(asym0, asym1) > 1e-10 * std::max(hmax0, hmax1)) return false;
+  if (asym > 1e-10 * hmax) return false;
   for (Eigen::Index i = 0; i < n; ++i) {
     if (std::isnan(p.lb(i)) || std::isnan(p.ub(i)) || p.lb(i) > p.ub(i)) return false;
     if (p.lb(i) == kInf || p.ub(i) == -kInf) return false;

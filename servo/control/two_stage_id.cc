@@ -5,6 +5,7 @@
 
 #include <Eigen/SVD>
 
+#include "dynamics/small_cholesky.h"
 #include "servo/control/contact_free_id.h"
 #include "servo/control/friction_cone.h"
 #include "servo/control/pivoted_qr.h"
@@ -278,29 +279,10 @@ bool ProjectContactVelocity(const ContactSet& set, const dynamics::CycleDynamics
       if (j != i) G.block<3, 3>(3 * j, 3 * i) = g.transpose();
     }
   }
-  // λ = G⁻¹ J_c v by G = L Lᵀ in place (lower triangle; Eigen's LLT at dynamic size goes through
-  // its blocked machinery, several times the arithmetic on ≤ 12 × 12)
+  // λ = G⁻¹ J_c v
+  if (!dynamics::CholeskyInPlace(G)) return false;
   auto& lam = Jv;
-  for (int c = 0; c < rows; ++c) {
-    double d = G(c, c);
-    for (int k = 0; k < c; ++k) d -= G(c, k) * G(c, k);
-    if (!(d > 0.0)) return false;
-    const double lcc = std::sqrt(d);
-    G(c, c) = lcc;
-    for (int r = c + 1; r < rows; ++r) {
-      double s = G(r, c);
-      for (int k = 0; k < c; ++k) s -= G(r, k) * G(c, k);
-      G(r, c) = s / lcc;
-    }
-    double y = lam(c);
-    for (int k = 0; k < c; ++k) y -= G(c, k) * lam(k);
-    lam(c) = y / lcc;
-  }
-  for (int c = rows - 1; c >= 0; --c) {
-    double y = lam(c);
-    for (int k = c + 1; k < rows; ++k) y -= G(k, c) * lam(k);
-    lam(c) = y / G(c, c);
-  }
+  dynamics::CholeskySolveInPlace(G, lam);
   // v −= M⁻¹ J_cᵀ λ: the base part x_b = Σ X_i λ_i; leg l: X_c,i λ_i (its own foot) − Y_lᵀ x_b
   dynamics::Vector6d x_b = dynamics::Vector6d::Zero();
   for (int i = 0; i < nc; ++i) x_b.noalias() += X[i] * lam.segment<3>(3 * i);
