@@ -14,24 +14,6 @@ constexpr int kMaxDependentEntries = 2;
 constexpr double kCertificateTolerance = 1e-12;
 constexpr double kEpsilon = std::numeric_limits<double>::epsilon();
 
-// z = L⁻¹ z in place, z zero above `first`: rows of L⁻¹ times z, each independent
-template <int N>
-void ForwardChol(const Workspace& ws, double* z, int first) {
-  double t[kN];
-  const int n = Size<N>(ws);
-  for (int i = first; i < n; ++i) t[i] = z[i];
-  for (int i = first; i < n; ++i) z[i] = Dot(&ws.linv[i * kN] + first, t + first, i - first + 1);
-}
-
-// z = L⁻ᵀ z in place: z_j = (column j of L⁻¹)ᵀ z, each independent
-template <int N>
-void BackwardChol(const Workspace& ws, double* z) {
-  double t[kN];
-  const int n = Size<N>(ws);
-  for (int i = 0; i < n; ++i) t[i] = z[i];
-  for (int j = 0; j < n; ++j) z[j] = Dot(&ws.linvt[j * kN] + j, t + j, n - j);
-}
-
 // m = L⁻¹ C_rowᵀ: a bound row is e_i, so m is zero above i
 template <int N>
 void RowVector(const Workspace& ws, int row, double* m) {

@@ -48,7 +48,8 @@ void LineariseN(Workspace* ws) {
     internal::MultiplyA<N>(p, ws->xk.data(), ws->cx.data() + n);
   }
   ws->products_valid = false;
-  for (int i = 0; i < n; ++i) ws->v[i] = internal::Dot(&ws->linv[i * kN], ws->q.data(), i + 1);
+  for (int i = 0; i < n; ++i) ws->v[i] = ws->q[i];
+  internal::ForwardChol<N>(*ws, ws->v.data(), 0);
 }
 
 void Linearise(Workspace* ws) {

@@ -128,6 +128,53 @@ inline decltype(auto) WithSize(int n, F&& f) {
   }
 }
 
+// z = L⁻¹ z in place, z zero above `first`. For a size known at compile time, column by column
+// (z_i += X(i, c) t_c for i ≥ c, column c of X contiguous in linvt) with every loop unrolled: the
+// triangle becomes straight-line code, without the loop and remainder branches of short dot
+// products of every length; otherwise rows of L⁻¹ times z, each independent.
+template <int N>
+void ForwardChol(const Workspace& ws, double* z, int first) {
+  double t[kN];
+  const int n = Size<N>(ws);
+  if constexpr (N > 0) {
+    for (int i = 0; i < N; ++i) t[i] = i >= first ? z[i] : 0.0;
+    double out[N] = {};
+#pragma GCC unroll 32
+    for (int c = 0; c < N; ++c) {
+      const double tc = t[c];
+      const double* column = &ws.linvt[c * kN];
+#pragma GCC unroll 32
+      for (int i = c; i < N; ++i) out[i] += column[i] * tc;
+    }
+    for (int i = first; i < N; ++i) z[i] = out[i];
+  } else {
+    for (int i = first; i < n; ++i) t[i] = z[i];
+    for (int i = first; i < n; ++i) z[i] = Dot(&ws.linv[i * kN] + first, t + first, i - first + 1);
+  }
+}
+
+// z = L⁻ᵀ z in place: for a compile-time size, row by row of X (z_j += X(i, j) t_i for j ≤ i),
+// unrolled as in ForwardChol; otherwise z_j = (column j of L⁻¹)ᵀ z, each independent
+template <int N>
+void BackwardChol(const Workspace& ws, double* z) {
+  double t[kN];
+  const int n = Size<N>(ws);
+  for (int i = 0; i < n; ++i) t[i] = z[i];
+  if constexpr (N > 0) {
+    double out[N] = {};
+#pragma GCC unroll 32
+    for (int i = 0; i < N; ++i) {
+      const double ti = t[i];
+      const double* row = &ws.linv[i * kN];
+#pragma GCC unroll 32
+      for (int j = 0; j <= i; ++j) out[j] += row[j] * ti;
+    }
+    for (int j = 0; j < N; ++j) z[j] = out[j];
+  } else {
+    for (int j = 0; j < n; ++j) z[j] = Dot(&ws.linvt[j * kN] + j, t + j, n - j);
+  }
+}
+
 /// ComputeKktResiduals that also leaves H x (n entries) in hx and A x (m entries) in ax, for the
 /// next proximal centre x_k = x (Linearise then needs no products of its own).
 KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const VectorN& y_bounds,
