@@ -449,24 +449,27 @@ bool Factor(Workspace* ws, double eps, double relative_floor) noexcept {
     for (int c = 0; c < j; ++c) Xj[c] = 0.0;
     Xj[j] = 1.0;
   }
-  // right-looking Cholesky: column k, then the rank-one update of the trailing block, whose
-  // columns are independent axpys (no chains of dependent dot products). L⁻¹ by the same sweep
-  // on the identity, in the same loop (its work fills the wait for each pivot's square root and
-  // division): row k of X is final once scaled, then removed from the rows below it
+  // right-looking Cholesky: the rank-one update of the trailing block by column k, whose columns
+  // are independent axpys (no chains of dependent dot products), made with the unscaled column
+  // and 1/d_k (A_ij −= a_ik a_jk / d_k), so that from one pivot to the next the chain holds one
+  // division and no square root. L⁻¹ by the same sweep on the identity, in the same loop, off
+  // that chain: row k of X scaled by 1/√d_k is final, then removed from the rows below it with
+  // l_jk = a_jk / √d_k. Only the trailing block of L is kept (the solver uses L⁻¹).
   for (int k = 0; k < n; ++k) {
-    double* Lk = L + k * kN;
+    const double* Lk = L + k * kN;
     const double d = Lk[k] + eps;
     if (!(d > relative_floor * (ws->hmax + eps)) || !(d > 0.0)) return false;
-    const double lkk = std::sqrt(d);
-    const double inv = 1.0 / lkk;
-    Lk[k] = lkk;
-    for (int i = k + 1; i < n; ++i) Lk[i] *= inv;
+    const double inv_d = 1.0 / d;
+    for (int j = k + 1; j < n; ++j) {
+      const double f = Lk[j] * inv_d;
+      double* Lj = L + j * kN;
+      for (int i = j; i < n; ++i) Lj[i] -= Lk[i] * f;
+    }
+    const double inv = 1.0 / std::sqrt(d);
     double* Xk = X + k * kN;
     for (int c = 0; c <= k; ++c) Xk[c] *= inv;
     for (int j = k + 1; j < n; ++j) {
-      const double ljk = Lk[j];
-      double* Lj = L + j * kN;
-      for (int i = j; i < n; ++i) Lj[i] -= Lk[i] * ljk;
+      const double ljk = Lk[j] * inv;
       double* Xj = X + j * kN;
       for (int c = 0; c <= k; ++c) Xj[c] -= ljk * Xk[c];
     }
