@@ -58,8 +58,10 @@ void Linearise(Workspace* ws) {
 
 // the KKT residuals of the iterate WriteIterate left in *sol, keeping H x and A x for Linearise
 KktResiduals CheckIterate(Workspace* ws, const Solution& sol) {
+  // WriteIterate set the multipliers of W's rows and zeroed the rest
   const KktResiduals r = internal::KktResidualsAndProducts(
-      *ws->problem, sol.x, sol.y_bounds, sol.y_constraints, ws->kkt_hx.data(), ws->kkt_ax.data());
+      *ws->problem, sol.x, sol.y_bounds, sol.y_constraints, ws->kkt_hx.data(), ws->kkt_ax.data(),
+      ws->w_row.data(), ws->nw);
   ws->products_valid = true;
   return r;
 }

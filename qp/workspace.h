@@ -176,10 +176,14 @@ void BackwardChol(const Workspace& ws, double* z) {
 }
 
 /// ComputeKktResiduals that also leaves H x (n entries) in hx and A x (m entries) in ax, for the
-/// next proximal centre x_k = x (Linearise then needs no products of its own).
+/// next proximal centre x_k = x (Linearise then needs no products of its own). support, when not
+/// null: the support_size rows (bounds 0..n−1, then A's) outside which y_bounds and
+/// y_constraints are zero (the solver's working set); the sums over multipliers then skip the
+/// rest.
 KktResiduals KktResidualsAndProducts(const Problem& p, const VectorN& x, const VectorN& y_bounds,
-                                     const VectorM& y_constraints, double* hx,
-                                     double* ax) noexcept;
+                                     const VectorM& y_constraints, double* hx, double* ax,
+                                     const int* support = nullptr,
+                                     int support_size = 0) noexcept;
 
 /// out = A x (m entries, overwritten), four columns of A per pass over out; n = N when N > 0.
 template <int N = 0>
