@@ -441,7 +441,7 @@ bool Factor(Workspace* ws, double eps, double relative_floor) noexcept {
   const Problem& p = *ws->problem;
   const int n = Size<N>(*ws);
   const double* h = p.H.data();
-  double* L = ws->chol.data();   // column-major, L(i, k) = L[i + k * kN]
+  double* L = ws->chol.data();   // column-major, (i, k) at L[i + k * kN]: the Schur complements
   double* X = ws->linv.data();   // X = L⁻¹, row-major
   for (int j = 0; j < n; ++j) {
     for (int i = j; i < n; ++i) L[i + j * kN] = h[i + j * n];

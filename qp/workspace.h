@@ -46,8 +46,8 @@ struct Workspace {
   std::array<double, kMaxRows> lo{}, hi{};
   std::array<std::uint8_t, kMaxRows> is_eq{};
 
-  // H + eps I = L Lᵀ, L lower triangular, column-major: L(i, k) = chol[i + k * kN] (only
-  // FactorHessian's scratch: the solver uses L⁻¹)
+  // FactorHessian's scratch, column-major (entry (i, k) at chol[i + k * kN]): the lower triangle
+  // of H, reduced column by column to the Schur complements of H + eps I (the solver uses L⁻¹)
   std::array<double, kN * kN> chol{};
   // L⁻¹ (lower triangular, row-major: linv[i * kN + j] = (L⁻¹)(i, j)): with the inverse, L⁻¹ c
   // and L⁻ᵀ c are matrix-vector products whose rows are independent, instead of triangular
