@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "dynamics/fixed_products.h"
 #include "servo/control/contact_free_id.h"
 
 namespace hyq::servo {
@@ -57,7 +58,7 @@ IdStatus NoSlipId::Solve(const dynamics::Model& model, const dynamics::CycleDyna
     VectorV vdot;
     vdot << a_b, in.qdd_des;
     VectorV b = h;
-    b.noalias() += dyn.M * vdot;
+    b += dynamics::Times(dyn.M, vdot);
 
     // J_cᵀ Π = Q [R; 0]; Q_u = the columns past the rank
     qr_.compute(Jc_.transpose());
@@ -93,7 +94,7 @@ IdStatus NoSlipId::Solve(const dynamics::Model& model, const dynamics::CycleDyna
   out->v_star = in.v;
   out->v_star.head<kB>() += in.dt * a_b;
   out->v_star.tail<kJ>() += in.dt * in.qdd_des;
-  out->kinetic_energy_J = 0.5 * out->v_star.dot(dyn.M * out->v_star);
+  out->kinetic_energy_J = dynamics::HalfQuadraticForm(dyn.M, out->v_star);
   return out->fallback == Fallback::kNone ? IdStatus::kOk : IdStatus::kFallback;
 }
 

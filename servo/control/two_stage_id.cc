@@ -5,6 +5,7 @@
 
 #include <Eigen/SVD>
 
+#include "dynamics/fixed_products.h"
 #include "dynamics/small_cholesky.h"
 #include "servo/control/contact_free_id.h"
 #include "servo/control/friction_cone.h"
@@ -16,20 +17,10 @@ namespace {
 constexpr int kB = dynamics::kNumBaseDofs;
 constexpr int kJ = dynamics::kNumJoints;
 
-// m v for a matrix of fixed row count and at most a few tens of columns, as a sum of fixed-size
-// columns (Eigen's general matrix-vector kernel, which dynamic columns select, costs more than
-// the arithmetic at these sizes)
-template <class Mat, class Vec>
-Eigen::Matrix<double, Mat::RowsAtCompileTime, 1> Times(const Mat& m, const Vec& v) {
-  static_assert(Mat::RowsAtCompileTime != Eigen::Dynamic);
-  Eigen::Matrix<double, Mat::RowsAtCompileTime, 1> s =
-      Eigen::Matrix<double, Mat::RowsAtCompileTime, 1>::Zero();
-  for (Eigen::Index k = 0; k < m.cols(); ++k) s += m.col(k) * v(k);
-  return s;
-}
+using dynamics::Times;
 
 double KineticEnergy(const dynamics::CycleDynamics& dyn, const VectorV& v) {
-  return 0.5 * v.dot(dyn.M * v);
+  return dynamics::HalfQuadraticForm(dyn.M, v);
 }
 
 // The contact-free answer: τ = f_ID, v* = v + h [a_b; q̈_des].
@@ -225,7 +216,7 @@ IdStatus TwoStageId::Solve(const dynamics::Model& model, const dynamics::CycleDy
 
   // x = (F⁻¹(v*_q − k) − G z)/h,  τ = f_ID + x   (19)
   const auto z = s1_.x.head(set_.num_impulses());
-  VectorJ x = dyn.inv.F_inv * (v_star_q_ - k_);
+  VectorJ x = Times(dyn.inv.F_inv, v_star_q_ - k_);
   x -= Times(G_, z);
   out->tau_Nm = f_id + x / h;
   // v*_b = Z z + p   (23)
@@ -363,7 +354,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::V
     G_.col(c).noalias() -= dyn.inv.A_inv_B.transpose() * rb;
   }
   p_ = j;
-  p_.noalias() -= dyn.inv.A_inv_B * (v_star_q_ - k_);
+  p_ -= Times(dyn.inv.A_inv_B, v_star_q_ - k_);
 
   // (27): H = ZᵀAZ = R_bᵀ A⁻¹ R_b = R_bᵀ Z, the upper triangle mirrored (exactly symmetric;
   // PSD up to rounding, far inside the proximal weight both solvers add)
@@ -382,7 +373,7 @@ void TwoStageId::RunStage1(const dynamics::CycleDynamics& dyn, const dynamics::V
   if (settings_.objective == StageOneObjective::kKineticEnergy) {
     // g = ZᵀA p + ZᵀB v*_q = R_bᵀ (p + A⁻¹B v*_q)   (27 as printed)
     dynamics::Vector6d pg = p_;
-    pg.noalias() += dyn.inv.A_inv_B * v_star_q_;
+    pg += Times(dyn.inv.A_inv_B, v_star_q_);
     p1_.g.noalias() = R_b.transpose() * pg;
   } else {
     // g = R_bᵀ p + R_qᵀ v*_q: then H z + g = R_bᵀ (Z z + p) + R_qᵀ v*_q = Rᵀ v*
