@@ -1,8 +1,7 @@
 // Matrix-vector products for matrices whose row count is fixed at compile time (the 6-, 12- and
-// 18-row blocks of the mass matrix, its inverse blocks and the ID's contact matrices): as a sum of
-// fixed-size columns, or for the transpose as fixed-size dot products of the columns. Eigen sends
-// products above a small size, and any with dynamic columns, to its general matrix-vector kernel,
-// whose set-up costs more than the arithmetic at these sizes.
+// 18-row blocks of the mass matrix, its inverse blocks and the ID's contact matrices), as a sum of
+// fixed-size columns. Eigen sends products above a small size, and any with dynamic columns, to
+// its general matrix-vector kernel, whose set-up costs more than the arithmetic at these sizes.
 #pragma once
 
 #include <Eigen/Core>
@@ -16,16 +15,6 @@ Eigen::Matrix<double, Mat::RowsAtCompileTime, 1> Times(const Mat& m, const Vec& 
   Eigen::Matrix<double, Mat::RowsAtCompileTime, 1> s =
       Eigen::Matrix<double, Mat::RowsAtCompileTime, 1>::Zero();
   for (Eigen::Index k = 0; k < m.cols(); ++k) s += m.col(k) * v(k);
-  return s;
-}
-
-/// mᵀ v: entry k is column k of m (fixed rows) dotted with v.
-template <class Mat, class Vec>
-Eigen::Matrix<double, Mat::ColsAtCompileTime, 1> TransposeTimes(const Mat& m, const Vec& v) {
-  static_assert(Mat::RowsAtCompileTime != Eigen::Dynamic &&
-                Mat::ColsAtCompileTime != Eigen::Dynamic);
-  Eigen::Matrix<double, Mat::ColsAtCompileTime, 1> s;
-  for (Eigen::Index k = 0; k < m.cols(); ++k) s(k) = m.col(k).dot(v);
   return s;
 }
 
