@@ -19,6 +19,15 @@ constexpr int kJ = dynamics::kNumJoints;
 
 using dynamics::Times;
 
+// J_c,i v from the only nonzero columns of contact i's Jacobian: the base's and its leg's
+Eigen::Vector3d FootVelocity(const ContactSet& set, int i, const VectorV& v) {
+  const int first = kB + dynamics::JointIndex(set.foot[i], 0);
+  Eigen::Vector3d u = set.J_c[i].leftCols<kB>() * v.head<kB>();
+  u.noalias() += set.J_c[i].middleCols<dynamics::kJointsPerLeg>(first) *
+                 v.segment<dynamics::kJointsPerLeg>(first);
+  return u;
+}
+
 double KineticEnergy(const dynamics::CycleDynamics& dyn, const VectorV& v) {
   return dynamics::HalfQuadraticForm(dyn.M, v);
 }
@@ -254,7 +263,7 @@ bool ProjectContactVelocity(const ContactSet& set, const dynamics::CycleDynamics
     const int leg = set.foot[i];
     const int first = dynamics::JointIndex(leg, 0);
     Jq[i] = set.J_c[i].middleCols<dynamics::kJointsPerLeg>(kB + first);
-    Jv.segment<3>(3 * i).noalias() = set.J_c[i] * *v;
+    Jv.segment<3>(3 * i) = FootVelocity(set, i, *v);
     S[i] = set.J_c[i].leftCols<kB>().transpose();
     S[i].noalias() -= dyn.factor.Y.middleCols<dynamics::kJointsPerLeg>(first) * Jq[i].transpose();
     X[i].noalias() = dyn.factor.Abar_inv * S[i];
@@ -308,7 +317,7 @@ bool MakeVelocityConsistent(const ContactSet& set, const VectorV& v, double h,
     if (!(std::abs(Jq.determinant()) > 1e-9 * scale * scale * scale)) return false;  // knee straight
     const Eigen::Matrix3d Jq_inv = Jq.inverse();
     K.middleRows<3>(3 * i).noalias() = -Jq_inv * set.J_c[i].leftCols<kB>();
-    c.segment<3>(3 * i).noalias() = -Jq_inv * (set.J_c[i] * v) / h;
+    c.segment<3>(3 * i).noalias() = -Jq_inv * FootVelocity(set, i, v) / h;
     x.segment<3>(3 * i) = qdd_des->segment<dynamics::kJointsPerLeg>(first) - c.segment<3>(3 * i);
   }
   // the projection onto range(K) = span of the first rank(K) columns of K's QR: with two feet K
