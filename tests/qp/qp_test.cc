@@ -7,11 +7,13 @@
 #include <string>
 #include <thread>
 #include <utility>
+#include <vector>
 
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
 #include "qp/solver.h"
+#include "qp/workspace.h"
 #include "tests/qp/qp_test_problems.h"
 #include "tests/support/no_heap_guard.h"
 
@@ -635,6 +637,58 @@ TEST(QpIdShaped, RankSixHessianOptimal) {
     worst = std::max(worst, s.iterations);
   }
   RecordProperty("worst_iterations", worst);
+}
+
+// The solver's own KKT check sums the multipliers' terms over its working set only; for
+// multipliers that are zero outside that set it must report what the full check reports. Sizes
+// with and without a compiled instance (qp/workspace.h, WithSize), sides finite and infinite.
+TEST(QpKkt, WorkingSetSumsMatchTheFullCheck) {
+  std::mt19937_64 rng(33);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  for (int n : {5, 7, 10, 14}) {
+    for (int rep = 0; rep < 50; ++rep) {
+      const int m = 3 + rep % 9;
+      Problem p;
+      p.Resize(n, m);
+      const Eigen::MatrixXd B = Eigen::MatrixXd::NullaryExpr(n, n, [&] { return u(rng); });
+      p.H = B * B.transpose();
+      for (int i = 0; i < n; ++i) p.g(i) = u(rng);
+      for (int k = 0; k < m; ++k)
+        for (int j = 0; j < n; ++j) p.A(k, j) = u(rng);
+      auto bounds = [&](double* lo, double* hi) {
+        const int kind = static_cast<int>(rng() % 4);  // both, lower only, upper only, none
+        *lo = kind == 0 || kind == 1 ? -1.0 + 0.5 * u(rng) : -kInf;
+        *hi = kind == 0 || kind == 2 ? 1.0 + 0.5 * u(rng) : kInf;
+      };
+      for (int i = 0; i < n; ++i) bounds(&p.lb(i), &p.ub(i));
+      for (int k = 0; k < m; ++k) bounds(&p.lbA(k), &p.ubA(k));
+      VectorN x(n), yb = VectorN::Zero(n);
+      VectorM yc = VectorM::Zero(m);
+      for (int i = 0; i < n; ++i) x(i) = u(rng);
+      std::vector<int> support;
+      for (int r = 0; r < n + m; ++r) {
+        if (rng() % 3 != 0) continue;
+        support.push_back(r);
+        (r < n ? yb(r) : yc(r - n)) = 2.0 * u(rng);
+      }
+      double hx_full[kMaxVariables], ax_full[kMaxConstraints], hx[kMaxVariables],
+          ax[kMaxConstraints];
+      const KktResiduals full =
+          internal::KktResidualsAndProducts(p, x, yb, yc, hx_full, ax_full);
+      const KktResiduals on_set = internal::KktResidualsAndProducts(
+          p, x, yb, yc, hx, ax, support.data(), static_cast<int>(support.size()));
+      const std::string what = "n " + std::to_string(n) + " rep " + std::to_string(rep);
+      EXPECT_NEAR(on_set.stationarity, full.stationarity, 1e-14) << what;
+      EXPECT_EQ(on_set.primal, full.primal) << what;
+      EXPECT_EQ(on_set.dual, full.dual) << what;
+      EXPECT_EQ(on_set.complementarity, full.complementarity) << what;
+      for (int i = 0; i < n; ++i) EXPECT_EQ(hx[i], hx_full[i]) << what;
+      for (int k = 0; k < m; ++k) EXPECT_EQ(ax[k], ax_full[k]) << what;
+      // and the full check agrees with the public one
+      const KktResiduals pub = ComputeKktResiduals(p, x, yb, yc);
+      EXPECT_EQ(pub.max(), full.max()) << what;
+    }
+  }
 }
 
 }  // namespace
