@@ -30,13 +30,9 @@ class LatencyRecorder {
   void Publish(benchmark::State* state) {
     if (samples_.empty()) return;
     std::sort(samples_.begin(), samples_.end());
-    auto pct = [&](double p) {
-      return samples_[std::min(samples_.size() - 1,
-                               static_cast<std::size_t>(p * static_cast<double>(samples_.size())))];
-    };
-    state->counters["p50_ns"] = pct(0.50);
-    state->counters["p99_ns"] = pct(0.99);
-    state->counters["p999_ns"] = pct(0.999);
+    state->counters["p50_ns"] = Percentile(samples_, 0.50);
+    state->counters["p99_ns"] = Percentile(samples_, 0.99);
+    state->counters["p999_ns"] = Percentile(samples_, 0.999);
     state->counters["max_ns"] = samples_.back();
   }
 
@@ -47,15 +43,17 @@ class LatencyRecorder {
   static void PublishPerInput(std::vector<double> fastest, benchmark::State* state) {
     if (fastest.empty()) return;
     std::sort(fastest.begin(), fastest.end());
-    auto pct = [&](double p) {
-      return fastest[std::min(fastest.size() - 1,
-                              static_cast<std::size_t>(p * static_cast<double>(fastest.size())))];
-    };
-    state->counters["input_p50_ns"] = pct(0.50);
-    state->counters["input_p999_ns"] = pct(0.999);
+    state->counters["input_p50_ns"] = Percentile(fastest, 0.50);
+    state->counters["input_p999_ns"] = Percentile(fastest, 0.999);
   }
 
  private:
+  // the p-quantile of sorted, non-empty samples (the sample at rank ⌊p n⌋)
+  static double Percentile(const std::vector<double>& sorted, double p) {
+    return sorted[std::min(sorted.size() - 1,
+                           static_cast<std::size_t>(p * static_cast<double>(sorted.size())))];
+  }
+
   std::vector<double> samples_;
 };
 
