@@ -202,7 +202,7 @@ Solver::Solver(const Settings& settings)
   for (auto* a : {&w.chol, &w.linv, &w.linvt, &w.mw, &w.lw, &w.square, &w.h_copy})
     a->fill(nan);
   for (auto* a : {&w.xk, &w.q, &w.v, &w.u, &w.delta, &w.lambda, &w.lambda_star, &w.d, &w.dw,
-                  &w.dw_inv, &w.mnew, &w.kvec, &w.tmp, &w.tmp2, &w.delta_prev})
+                  &w.dw_inv, &w.mnew, &w.kvec, &w.tmp, &w.tmp2})
     a->fill(nan);
   for (auto* a : {&w.lo, &w.hi, &w.cx, &w.cdelta, &w.cert, &w.lo_scale, &w.hi_scale,
                   &w.lo_finite, &w.hi_finite, &w.entry_violation, &w.warm_y})

@@ -87,7 +87,7 @@ struct Workspace {
   bool products_valid = false;
 
   // scratch
-  std::array<double, kN> mnew{}, kvec{}, tmp{}, tmp2{}, delta_prev{};
+  std::array<double, kN> mnew{}, kvec{}, tmp{}, tmp2{};
   std::array<double, kMaxRows> cert{};  // signed Farkas multipliers over rows
   std::array<std::uint8_t, kMaxRows> skipped{}, dependent_entries{};  // per subproblem
   std::array<double, kMaxRows> entry_violation{};  // at the last dependent entry
